@@ -1,0 +1,256 @@
+"""N copies of a robot plus static terrain in one Newton model, stepped by SolverMuJoCo under one captured graph.
+
+The task layer sees the simulator only through this small tensor interface (DESIGN.md):
+views (zero-copy torch tensors of the sim's own arrays), ``step()``, ``reset()``, external forces, impulses.
+Every view aliases Warp memory: writing into ``joint_target`` or ``joint_qd`` reaches the solver, and the sim's
+updates are visible in the views without copies. Nothing here loops over worlds in Python.
+
+Conventions at this boundary: positions in metres, world frame z up; quaternions xyzw (Newton's); body twists
+(linear velocity of the CoM, angular velocity) in the world frame; driven joints in the robot config's order.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import torch
+import warp as wp
+
+import newton
+from newton import JointTargetMode
+from mujoco_warp import OverflowType
+from newton.sensors import SensorContact
+
+from robots.robot_config import RobotConfig
+
+FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
+
+
+@dataclass
+class WorldConfig:
+    """Physics settings of the batched world. Defaults are the ones benchmarked on the 2-core CPU."""
+
+    num_envs: int = 64
+    device: str = "cpu"
+    sim_dt: float = 0.005               # physics step [s]
+    substeps: int = 4                   # physics steps per env step (0.02 s); must be even (captured state swap)
+    contacts: Literal["feet", "all"] = "feet"  # robot shapes that collide with the terrain (never with each other)
+    contact_gap: float = 0.01           # contact detection margin [m]; Newton's 0.1 default makes ~8x more contacts
+    friction: float = 1.0
+    iterations: int = 5                 # constraint solver iterations (early exit on tolerance)
+    ls_iterations: int = 10
+    nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
+    njmax: int | None = None            # constraint rows per world; None: sized from nconmax
+    capture: bool = True                # record one env step as a graph and replay it (CPU and CUDA)
+
+    def __post_init__(self):
+        if self.num_envs < 1:
+            raise ValueError(f"WorldConfig.num_envs must be >= 1, got {self.num_envs}")
+        if self.substeps < 2 or self.substeps % 2:
+            raise ValueError(f"WorldConfig.substeps must be even and >= 2 (the captured state swap), got {self.substeps}")
+        if self.sim_dt <= 0:
+            raise ValueError(f"WorldConfig.sim_dt must be > 0, got {self.sim_dt}")
+
+    @property
+    def env_dt(self) -> float:
+        return self.sim_dt * self.substeps
+
+
+@dataclass
+class TerrainBoxes:
+    """Static boxes shared by every world (world -1): stairs, grid cells. Arrays of length B."""
+
+    centers: np.ndarray                  # [B, 3] m
+    half_extents: np.ndarray             # [B, 3] m
+    quats: np.ndarray | None = None      # [B, 4] xyzw; None = axis aligned
+
+
+def robot_urdf_text(robot: RobotConfig) -> str:
+    """The robot's URDF as the simulator and kinematics load it: joints the policy does not drive become fixed."""
+    text = robot.urdf_path.read_text()
+    for name in robot.fixed_joints:
+        text, n = re.subn(rf'(<joint name="{name}" type=")\w+(")', r"\1fixed\2", text)
+        if n != 1:
+            raise ValueError(f"{robot.urdf_path.name}: joint {name!r} listed in fixed_joints is not in the URDF")
+    return text
+
+
+class World:
+    """A batched Newton world of ``cfg.num_envs`` robots.
+
+    Views (torch, on the sim's device, aliasing the sim's arrays):
+      root_pos [N, 3], root_quat [N, 4] (xyzw), root_lin_vel [N, 3], root_ang_vel [N, 3] (world frame; the linear
+      velocity is the base CoM's), joint_pos [N, J], joint_vel [N, J], joint_target [N, J] (PD position targets),
+      body_pos [N, B, 3], body_quat [N, B, 4], body_lin_vel / body_ang_vel [N, B, 3], foot_forces [N, F, 3]
+      (total contact force on each foot, world frame, refreshed once per env step), base_force [N, 6] (external
+      wrench on the base CoM, world frame, applied at every substep until changed).
+    """
+
+    def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
+        self.robot = robot
+        self.cfg = cfg = cfg or WorldConfig()
+        self.device = wp.get_device(cfg.device)
+        self.num_envs = N = cfg.num_envs
+        t0 = time.perf_counter()
+
+        model, self._body_names = self._build_model(robot, cfg, terrain)
+        self.model = model
+        self.num_bodies = B = model.body_count // N
+        nj = robot.num_joints
+        if model.joint_coord_count != N * (FREE_Q + nj) or model.joint_dof_count != N * (FREE_QD + nj):
+            raise ValueError(f"{robot.name}: the simulator has {model.joint_dof_count // N - FREE_QD} driven dofs "
+                             f"per robot, the config lists {nj}")
+
+        nconmax, njmax = self._buffer_sizes(cfg, terrain)
+        self.solver = newton.solvers.SolverMuJoCo(
+            model, iterations=cfg.iterations, ls_iterations=cfg.ls_iterations, nconmax=nconmax, njmax=njmax,
+            use_mujoco_contacts=True, disable_sensors=True)
+        # Hitting the iteration cap is expected with few iterations (we measure the stand, not the residual);
+        # mujoco_warp would printf a warning from inside the kernel at every step.
+        self.solver.mjw_model.opt.warn_overflow &= ~int(OverflowType.ITERATIONS)
+
+        self.state_0, self.state_1 = model.state(), model.state()
+        self.control = model.control()
+        newton.eval_fk(model, model.joint_q, model.joint_qd, self.state_0)
+
+        # Per-foot forces: the solver exports its contacts and their forces into these buffers (last substep only).
+        self._contact_sensor = SensorContact(model, sensing_bodies=self._foot_body_indices().tolist(),
+                                             request_contact_attributes=False)
+        self._contacts = newton.CollisionPipeline(model, rigid_contact_max=self.solver.get_max_contact_count(),
+                                                  soft_contact_max=0).contacts()
+        self._observables = self.solver.observables(kinds=self._contact_sensor.solver_observable_kinds,
+                                                    contacts=self._contacts)
+        self._base_force_wp = wp.zeros(N * B, dtype=wp.spatial_vector, device=self.device)
+
+        self._make_views()
+        self._initial_q = self.joint_q.clone()
+        self.graph = None
+        if cfg.capture:
+            self._simulate()  # warm-up outside the capture: kernels compile and load here
+            self.reset()
+            with wp.ScopedCapture(device=self.device) as cap:
+                self._simulate()
+            self.graph = cap.graph
+            self.reset()
+        self.build_seconds = time.perf_counter() - t0
+
+    # ---------------------------------------------------------------- building
+    @staticmethod
+    def _build_model(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None):
+        proto = newton.ModelBuilder()
+        newton.solvers.SolverMuJoCo.register_custom_attributes(proto)
+        proto.rigid_gap = cfg.contact_gap
+        proto.default_shape_cfg.gap = cfg.contact_gap
+        proto.default_shape_cfg.mu = cfg.friction
+        proto.default_joint_cfg = newton.ModelBuilder.JointDofConfig(armature=robot.armature)
+        proto.add_urdf(robot_urdf_text(robot), floating=True, enable_self_collisions=False,
+                       collapse_fixed_joints=True, joint_ordering="dfs")
+        names = [proto.joint_label[i].split("/")[-1] for i in range(1, proto.joint_count)]
+        if tuple(names) != robot.joint_names:
+            raise ValueError(f"{robot.name}: the URDF's depth-first joint order {names} differs from the config's "
+                             f"canonical order; reorder the URDF or the config")
+        # Standing pose and PD drives on every driven dof (dof 0..5 are the free base).
+        proto.joint_q[:3] = [0.0, 0.0, robot.base_height]
+        proto.joint_q[3:7] = [0.0, 0.0, 0.0, 1.0]
+        proto.joint_q[FREE_Q:] = list(robot.default_q)
+        for j in range(robot.num_joints):
+            d = FREE_QD + j
+            proto.joint_target_mode[d] = int(JointTargetMode.POSITION)
+            proto.joint_target_ke[d] = robot.kp[j]
+            proto.joint_target_kd[d] = robot.kd[j]
+            proto.joint_effort_limit[d] = robot.effort_limit[j]
+            proto.joint_target_q[FREE_Q + j] = robot.default_q[j]
+        body_names = [lbl.split("/")[-1] for lbl in proto.body_label]
+        if cfg.contacts == "feet":
+            foot_bodies = {body_names.index(n) for n in robot.foot_links}
+            for s in range(proto.shape_count):
+                if proto.shape_body[s] not in foot_bodies:
+                    proto.shape_flags[s] &= ~int(newton.ShapeFlags.COLLIDE_SHAPES)
+
+        builder = newton.ModelBuilder()
+        builder.rigid_gap = cfg.contact_gap
+        builder.default_shape_cfg.gap = cfg.contact_gap
+        builder.default_shape_cfg.mu = cfg.friction
+        builder.replicate(proto, cfg.num_envs, spacing=(0.0, 0.0, 0.0))
+        builder.add_ground_plane()
+        if terrain is not None:
+            quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
+            for c, h, q in zip(terrain.centers, terrain.half_extents, quats):
+                builder.add_shape_box(-1, xform=wp.transform(wp.vec3(*c), wp.quat(*q)), hx=h[0], hy=h[1], hz=h[2])
+        return builder.finalize(device=cfg.device), body_names
+
+    @staticmethod
+    def _buffer_sizes(cfg: WorldConfig, terrain: TerrainBoxes | None) -> tuple[int, int]:
+        # A sole box on a plane makes 4 contacts, on a stair edge up to 8; limbs add a few when "all" collide.
+        nconmax = cfg.nconmax or (16 if cfg.contacts == "feet" else 32) * (2 if terrain is not None else 1)
+        njmax = cfg.njmax or 4 * nconmax + 32  # pyramidal cone: 4 rows per contact, plus joint limits
+        return nconmax, njmax
+
+    def _foot_body_indices(self) -> np.ndarray:
+        """Global body indices of the feet, [N * F], world-major."""
+        local = [self._body_names.index(n) for n in self.robot.foot_links]
+        return (np.arange(self.num_envs)[:, None] * self.num_bodies + np.asarray(local)[None, :]).reshape(-1)
+
+    def _make_views(self):
+        N, B, nj = self.num_envs, self.num_bodies, self.robot.num_joints
+        t = wp.to_torch
+        self.joint_q = t(self.state_0.joint_q).view(N, FREE_Q + nj)
+        self.joint_qd = t(self.state_0.joint_qd).view(N, FREE_QD + nj)
+        self.root_pos, self.root_quat = self.joint_q[:, 0:3], self.joint_q[:, 3:7]
+        self.root_lin_vel, self.root_ang_vel = self.joint_qd[:, 0:3], self.joint_qd[:, 3:6]
+        self.joint_pos, self.joint_vel = self.joint_q[:, FREE_Q:], self.joint_qd[:, FREE_QD:]
+        self.joint_target = t(self.control.joint_target_q).view(N, FREE_Q + nj)[:, FREE_Q:]
+        body_q = t(self.state_0.body_q).view(N, B, 7)
+        body_qd = t(self.state_0.body_qd).view(N, B, 6)
+        self.body_pos, self.body_quat = body_q[..., 0:3], body_q[..., 3:7]
+        self.body_lin_vel, self.body_ang_vel = body_qd[..., 0:3], body_qd[..., 3:6]
+        self.foot_forces = t(self._contact_sensor.total_force).view(N, len(self.robot.foot_links), 3)
+        self.base_force = t(self._base_force_wp).view(N, B, 6)[:, 0]
+        self.body_index = {n: i for i, n in enumerate(self._body_names)}
+
+    # ---------------------------------------------------------------- stepping
+    def _simulate(self):
+        s0, s1 = self.state_0, self.state_1
+        dt = self.cfg.sim_dt
+        for k in range(self.cfg.substeps):
+            wp.copy(s0.body_f, self._base_force_wp)
+            last = k == self.cfg.substeps - 1
+            self.solver.step(s0, s1, self.control, self._contacts if last else None, dt,
+                             observables=self._observables if last else None)
+            s0, s1 = s1, s0
+        self._contact_sensor.update(s0, self._contacts, observables=self._observables)
+
+    def step(self):
+        """Advance one env step (substeps x sim_dt). The views hold the new state afterwards."""
+        if self.graph is not None:
+            wp.capture_launch(self.graph)
+        else:
+            self._simulate()
+
+    # ---------------------------------------------------------------- resets and perturbations
+    def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,
+              joint_qd: torch.Tensor | None = None):
+        """Set the full state of the worlds ``env_ids`` (all if None); other worlds are untouched.
+
+        joint_q [n, 7 + J] (base position, base quaternion xyzw, joint positions) and joint_qd [n, 6 + J]
+        (base CoM linear and angular velocity in the world frame, joint velocities). Defaults: the initial standing
+        pose at rest. PD targets of the reset worlds go to the reference pose, external forces to zero.
+        """
+        dev = self.joint_q.device
+        ids = torch.arange(self.num_envs, device=dev) if env_ids is None else env_ids.to(dev, torch.long)
+        self.joint_q[ids] = self._initial_q[ids] if joint_q is None else joint_q
+        self.joint_qd[ids] = 0.0 if joint_qd is None else joint_qd
+        self.joint_target[ids] = self._initial_q[ids, FREE_Q:]
+        self.base_force[ids] = 0.0
+        self.foot_forces[ids] = 0.0
+        mask = torch.zeros(self.num_envs, dtype=torch.bool, device=dev)
+        mask[ids] = True
+        newton.eval_fk(self.model, self.state_0.joint_q, self.state_0.joint_qd, self.state_0, mask=wp.from_torch(mask))
+
+    def apply_impulse(self, env_ids: torch.Tensor, delta_v: torch.Tensor):
+        """Add ``delta_v`` [n, 3] (m/s, world frame) to the base velocity of the given worlds (a push)."""
+        self.joint_qd[env_ids, 0:3] += delta_v

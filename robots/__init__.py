@@ -1,0 +1,1 @@
+"""Robot data: descriptions and configs. No simulation code lives here."""

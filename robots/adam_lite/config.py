@@ -1,0 +1,65 @@
+"""Adam Lite robot config: the 23 driven joints in canonical order, standing pose, PD gains, limits.
+
+Canonical order = the vendor's motor order (URDF order without the wristYaw joints): left leg, right leg,
+waist (roll, pitch, yaw), left arm, right arm. Limits come from our description (URDF figures).
+
+PD gains. The vendor's RL gains (ankle pitch kp 25) do not hold a passive PD stand: the CoM is ~3.6 cm ahead
+of the ankle axis and the robot falls in ~1.2 s (../shared/docs/FACTS.md). We use one set of gains for the sim,
+for training and for the passive-stand tests: the vendor's (pnd_rl_gym lite_run) everywhere except hip pitch,
+knee and ankle pitch, which are raised to the values measured to hold a 5 s stand (610/6, 610/6, 500/10), and
+ankle roll, which the vendor leaves undriven (kp 0) and we drive softly (40/1) so that a zero action is a stand.
+A policy trained with these gains must be deployed with them (the export JSON carries them).
+
+wristYaw joints are in the description (25 revolute joints) but not driven by the policy: the vendor's deploy stack
+holds them at 0, so the simulator and the kinematics weld them at 0 (fixed joints). That keeps the 23 driven joints
+contiguous in Newton's arrays (zero-copy canonical views), saves two dofs per robot and avoids a stiff PD on the
+wrist's tiny yaw inertia (0.0003 kg m^2), which would need a smaller time step.
+"""
+
+from __future__ import annotations
+
+from robots.adam_lite.description import JOINT_BY_NAME, SOLE, URDF_PATH
+from robots.robot_config import RobotConfig
+
+_LEG = ("hipPitch", "hipRoll", "hipYaw", "kneePitch", "anklePitch", "ankleRoll")
+_ARM = ("shoulderPitch", "shoulderRoll", "shoulderYaw", "elbow")
+JOINT_NAMES = (
+    *(f"{j}_Left" for j in _LEG), *(f"{j}_Right" for j in _LEG),
+    "waistRoll", "waistPitch", "waistYaw",
+    *(f"{j}_Left" for j in _ARM), *(f"{j}_Right" for j in _ARM),
+)
+
+#            hipP   hipR  hipY  knee  ankP   ankR
+_LEG_Q_L = (-0.32, 0.0, -0.18, 0.66, -0.39, 0.0)
+_LEG_Q_R = (-0.32, 0.0, 0.18, 0.66, -0.39, 0.0)
+_LEG_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 40.0)
+_LEG_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 1.0)
+#            shP   shR   shY   elbow
+_ARM_Q_L = (0.0, 0.1, 0.0, -0.3)
+_ARM_Q_R = (0.0, -0.1, 0.0, -0.3)
+_ARM_KP = (18.0, 9.0, 9.0, 9.0)
+_ARM_KD = (0.9, 0.9, 0.9, 0.9)
+
+ADAM_LITE = RobotConfig(
+    name="adam_lite",
+    urdf_path=URDF_PATH,
+    base_link="pelvis",
+    foot_links=("toeLeft", "toeRight"),
+    joint_names=JOINT_NAMES,
+    default_q=(*_LEG_Q_L, *_LEG_Q_R, 0.0, 0.0, 0.0, *_ARM_Q_L, *_ARM_Q_R),
+    kp=(*_LEG_KP, *_LEG_KP, 405.0, 405.0, 205.0, *_ARM_KP, *_ARM_KP),
+    kd=(*_LEG_KD, *_LEG_KD, 6.1, 6.1, 4.1, *_ARM_KD, *_ARM_KD),
+    effort_limit=tuple(JOINT_BY_NAME[n].effort for n in JOINT_NAMES),
+    velocity_limit=tuple(JOINT_BY_NAME[n].velocity for n in JOINT_NAMES),
+    pos_lower=tuple(JOINT_BY_NAME[n].limits[0] for n in JOINT_NAMES),
+    pos_upper=tuple(JOINT_BY_NAME[n].limits[1] for n in JOINT_NAMES),
+    action_scale=0.5,  # the vendor's deploy convention: q* = q_ref + 0.5 a
+    base_height=0.88,  # pelvis above the soles at default_q (checked against FK in tests)
+    sole_offset=(SOLE.xyz[0], SOLE.xyz[1], SOLE.xyz[2] - SOLE.size[2] / 2),
+    sole_half_size=(SOLE.size[0] / 2, SOLE.size[1] / 2),
+    fixed_joints=("wristYaw_Left", "wristYaw_Right"),
+    # The vendor files carry no rotor inertia (but 0.001 on ankle pitch). Without it the stiff ankle PD chatters
+    # against the ground at dt 0.005 and the feet creep apart until the robot falls, in MuJoCo C and in Newton
+    # alike; 0.01 kg m^2 (small next to the QDD rotors' reflected inertia) holds a 10 s stand.
+    armature=0.01,
+)

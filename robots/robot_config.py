@@ -1,0 +1,44 @@
+"""The robot config type: what the library needs to know about a robot beyond its URDF."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """One robot as the simulator, kinematics and tasks see it.
+
+    Every per-joint tuple is in the canonical order of ``joint_names`` (the driven joints). Joints of the
+    description that are not driven are listed in ``fixed_joints``: the simulator and the kinematics weld them at 0.
+    """
+
+    name: str
+    urdf_path: Path
+    base_link: str
+    foot_links: tuple[str, ...]                 # left first
+    joint_names: tuple[str, ...]                # canonical order of the driven joints
+    default_q: tuple[float, ...]                # reference standing pose q_ref [rad]
+    kp: tuple[float, ...]                       # PD stiffness [N m / rad]
+    kd: tuple[float, ...]                       # PD damping [N m s / rad]
+    effort_limit: tuple[float, ...]             # [N m]
+    velocity_limit: tuple[float, ...]           # [rad / s]
+    pos_lower: tuple[float, ...]                # [rad]
+    pos_upper: tuple[float, ...]                # [rad]
+    action_scale: float                         # q* = q_ref + action_scale * a
+    base_height: float                          # pelvis height above flat ground at the standing pose [m]
+    sole_offset: tuple[float, float, float]     # sole centre in the foot link frame [m]
+    sole_half_size: tuple[float, float]         # sole half length (x) and half width (y) [m]
+    fixed_joints: tuple[str, ...] = ()          # joints of the description held at 0: fixed in sim and kinematics
+    armature: float = 0.0                       # reflected rotor inertia added to every joint [kg m^2]
+
+    def __post_init__(self):
+        n = len(self.joint_names)
+        for f in ("default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper"):
+            if len(getattr(self, f)) != n:
+                raise ValueError(f"RobotConfig.{f} has {len(getattr(self, f))} entries, expected {n} (one per joint)")
+
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
