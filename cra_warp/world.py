@@ -127,7 +127,7 @@ class World:
         self._base_force_wp = wp.zeros(N * B, dtype=wp.spatial_vector, device=self.device)
 
         self._make_views()
-        self._initial_q = self.joint_q.clone()
+        self.default_joint_q = self.joint_q.clone()
         self.graph = None
         if cfg.capture:
             self._simulate()  # warm-up outside the capture: kernels compile and load here
@@ -211,6 +211,10 @@ class World:
         self.foot_forces = t(self._contact_sensor.total_force).view(N, len(self.robot.foot_links), 3)
         self.base_force = t(self._base_force_wp).view(N, B, 6)[:, 0]
         self.body_index = {n: i for i, n in enumerate(self._body_names)}
+        self.body_mass = t(self.model.body_mass).view(N, B)  # [N, B] kg; per world, for randomisation
+        # The constraint solver starts from the previous step's accelerations; a reset world must not inherit them,
+        # so that its trajectory depends only on the state it was reset to.
+        self._warmstart = t(self.solver.mjw_data.qacc_warmstart)
 
     # ---------------------------------------------------------------- stepping
     def _simulate(self):
@@ -242,11 +246,12 @@ class World:
         """
         dev = self.joint_q.device
         ids = torch.arange(self.num_envs, device=dev) if env_ids is None else env_ids.to(dev, torch.long)
-        self.joint_q[ids] = self._initial_q[ids] if joint_q is None else joint_q
+        self.joint_q[ids] = self.default_joint_q[ids] if joint_q is None else joint_q
         self.joint_qd[ids] = 0.0 if joint_qd is None else joint_qd
-        self.joint_target[ids] = self._initial_q[ids, FREE_Q:]
+        self.joint_target[ids] = self.default_joint_q[ids, FREE_Q:]
         self.base_force[ids] = 0.0
         self.foot_forces[ids] = 0.0
+        self._warmstart[ids] = 0.0
         mask = torch.zeros(self.num_envs, dtype=torch.bool, device=dev)
         mask[ids] = True
         newton.eval_fk(self.model, self.state_0.joint_q, self.state_0.joint_qd, self.state_0, mask=wp.from_torch(mask))

@@ -1,0 +1,15 @@
+"""Shared fixtures. Worlds are small (the physics is the same at N=4 as at N=4096) and built once per module."""
+
+from pathlib import Path
+
+import pytest
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+REFERENCE = SHARED / "reference" / "adam_lite"
+
+
+def need_shared(path: Path) -> Path:
+    """Skip (saying why) when ../shared is not beside the repo; tests read reference data from there."""
+    if not path.exists():
+        pytest.skip(f"{path} not found: the reference data in ../shared is not beside this checkout")
+    return path
