@@ -1,0 +1,274 @@
+"""cra-bench: throughput and memory of the Adam Lite world, Newton (1 and 2 processes) against MuJoCo C.
+
+One env step = cfg.substeps x cfg.sim_dt (4 x 0.005 s = 0.02 s of sim time). Every configuration runs in a fresh
+worker process, so its peak RSS is its own. The robots stand under PD control at the reference pose while measured;
+each record says which fraction was still up at the end (pelvis within 15 cm of its spawn height, upright).
+
+MuJoCo C runs the very model Newton builds (SolverMuJoCo's own MJCF export: same bodies, geoms, actuators, contact
+and solver options), through mujoco.rollout, one rollout call per env step.
+
+    cra-bench                                   # the full table (several minutes)
+    cra-bench --num-envs 64 256 --no-cold       # a quick look
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
+TERRAINS = ("flat", "stairs")
+ENGINES = ("newton", "mujoco")
+
+
+def stairs():
+    """A straight staircase of box steps (0.15 m rise, 0.3 m tread, 2 m wide); the robot spawns on the third tread,
+    its soles centred on it (the sole centre is ~3 cm ahead of the pelvis at the standing pose).
+
+    Returns (TerrainBoxes, spawn ground height).
+    """
+    import numpy as np
+
+    from cra_warp.world import TerrainBoxes
+
+    rise, tread, width, n = 0.15, 0.3, 2.0, 10
+    k = np.arange(1, n + 1)
+    heights = rise * k
+    centers = np.stack([(k - 3) * tread + 0.03, np.zeros(n), heights / 2], 1)
+    half = np.stack([np.full(n, tread / 2), np.full(n, width / 2), heights / 2], 1)
+    return TerrainBoxes(centers, half), float(heights[2])
+
+
+def _peak_rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def _newton_worker(spec: dict) -> dict:
+    from cra_warp.world import World, WorldConfig
+    from robots.adam_lite import ADAM_LITE
+
+    terrain, ground = stairs() if spec["terrain"] == "stairs" else (None, 0.0)
+    t0 = time.perf_counter()
+    world = World(ADAM_LITE, WorldConfig(num_envs=spec["num_envs"], device=spec["device"]), terrain)
+    q = world.default_joint_q.clone()
+    q[:, 2] += ground
+    world.default_joint_q.copy_(q)
+    world.reset()
+    world.step()
+    start_s = time.perf_counter() - t0
+    spawn_z = world.root_pos[:, 2].clone()
+    for _ in range(spec["warmup"]):
+        world.step()
+    steps, t0 = 0, time.perf_counter()
+    while steps < spec["min_steps"] or time.perf_counter() - t0 < spec["seconds"]:
+        world.step()
+        steps += 1
+    wp_sync(world)
+    dt = time.perf_counter() - t0
+    up = (world.root_pos[:, 2] > spawn_z - STAND_DROP) & _upright(world.root_quat)
+    return {"engine": "newton", "num_envs": spec["num_envs"], "env_steps_per_s": steps * spec["num_envs"] / dt,
+            "peak_rss_mb": _peak_rss_mb(), "standing": float(up.float().mean()), "start_s": start_s,
+            "bodies": world.num_bodies}
+
+
+def wp_sync(world):
+    import warp as wp
+
+    wp.synchronize_device(world.device)
+
+
+def _upright(quat_xyzw):
+    """Projected gravity z < -0.9: the base is tilted less than ~25 deg."""
+    x, y = quat_xyzw[..., 0], quat_xyzw[..., 1]
+    return 1.0 - 2.0 * (x * x + y * y) > 0.9
+
+
+def _mujoco_worker(spec: dict) -> dict:
+    import mujoco
+    import numpy as np
+    from mujoco import rollout
+
+    from robots.adam_lite import ADAM_LITE
+
+    model = mujoco.MjModel.from_xml_path(spec["mjcf"])
+    model.opt.timestep = spec["sim_dt"]  # Newton passes dt per step; its MJCF export leaves the default
+    n, threads, substeps = spec["num_envs"], spec["threads"], spec["substeps"]
+    data = mujoco.MjData(model)
+    data.qpos[:3] = [0.0, 0.0, ADAM_LITE.base_height + spec["ground"]]
+    data.qpos[3:7] = [1.0, 0.0, 0.0, 0.0]  # MuJoCo quaternions are wxyz
+    data.qpos[7:] = ADAM_LITE.default_q
+    spec_full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    nstate = mujoco.mj_stateSize(model, spec_full)
+    s0 = np.empty(nstate)
+    mujoco.mj_getState(model, data, s0, spec_full)
+    state = np.tile(s0, (n, 1))
+    ctrl = np.tile(np.asarray(ADAM_LITE.default_q), (n, substeps, 1))
+    datas = [mujoco.MjData(model) for _ in range(threads)]
+    out = np.empty((n, substeps, nstate))
+    spawn_z = s0[3]
+
+    def env_step():
+        rollout.rollout(model, datas, state, ctrl, nstep=substeps, state=out, persistent_pool=True)
+        state[:] = out[:, -1]
+
+    start = time.perf_counter()
+    env_step()
+    start_s = time.perf_counter() - start
+    for _ in range(spec["warmup"]):
+        env_step()
+    steps, t0 = 0, time.perf_counter()
+    while steps < spec["min_steps"] or time.perf_counter() - t0 < spec["seconds"]:
+        env_step()
+        steps += 1
+    dt = time.perf_counter() - t0
+    rollout.shutdown_persistent_pool()
+    qx, qy = state[:, 5], state[:, 6]  # state = [time, qpos (xyz, quaternion wxyz, joints), ...]
+    up = (state[:, 3] > spawn_z - STAND_DROP) & (1.0 - 2.0 * (qx * qx + qy * qy) > 0.9)
+    return {"engine": "mujoco", "num_envs": n, "env_steps_per_s": steps * n / dt, "peak_rss_mb": _peak_rss_mb(),
+            "standing": float(up.mean()), "start_s": start_s}
+
+
+def export_mjcf(terrain: str, path: str) -> None:
+    """Write the MJCF that SolverMuJoCo builds for a one-robot world with the benchmark's options."""
+    import newton
+
+    from cra_warp.world import World, WorldConfig
+    from robots.adam_lite import ADAM_LITE
+
+    init = newton.solvers.SolverMuJoCo.__init__
+
+    def with_export(self, *args, **kwargs):
+        init(self, *args, **kwargs, save_to_mjcf=path)
+
+    newton.solvers.SolverMuJoCo.__init__ = with_export
+    try:
+        World(ADAM_LITE, WorldConfig(num_envs=1, capture=False), stairs()[0] if terrain == "stairs" else None)
+    finally:
+        newton.solvers.SolverMuJoCo.__init__ = init
+
+
+def _run_workers(specs: list[dict], env: dict | None = None) -> list[dict]:
+    """Run one worker process per spec, all at once; return their records."""
+    procs = [subprocess.Popen([sys.executable, "-m", "tools.bench", "--worker", json.dumps(s)],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+             for s in specs]
+    records = []
+    for p in procs:
+        out, err = p.communicate()
+        if p.returncode != 0:
+            raise RuntimeError(f"benchmark worker failed: {err.strip().splitlines()[-1] if err.strip() else p.returncode}")
+        records.append(json.loads(out.strip().splitlines()[-1]))
+    return records
+
+
+def measure(engine: str, parallel: int, terrain: str, num_envs: int, args, mjcf: dict[str, str]) -> dict:
+    base = {"terrain": terrain, "seconds": args.seconds, "min_steps": args.min_steps, "warmup": args.warmup}
+    if engine == "newton":
+        per = [{**base, "kind": "newton", "num_envs": num_envs // parallel, "device": args.device}] * parallel
+        recs = _run_workers(per)
+    else:
+        spec = {**base, "kind": "mujoco", "num_envs": num_envs, "threads": parallel, "mjcf": mjcf[terrain],
+                "sim_dt": 0.005, "substeps": 4, "ground": stairs()[1] if terrain == "stairs" else 0.0}
+        recs = _run_workers([spec])
+    return {"engine": engine, ("processes" if engine == "newton" else "threads"): parallel, "terrain": terrain,
+            "num_envs": num_envs, "env_steps_per_s": sum(r["env_steps_per_s"] for r in recs),
+            "peak_rss_mb": sum(r["peak_rss_mb"] for r in recs),
+            "standing": min(r["standing"] for r in recs)}
+
+
+def start_times(num_envs: int, device: str, cold: bool) -> dict:
+    """Build time of a world (kernels loaded, one step taken): cold = empty Warp kernel cache, warm = ours."""
+    spec = {"kind": "newton", "terrain": "flat", "num_envs": num_envs, "device": device, "seconds": 0.0,
+            "min_steps": 1, "warmup": 0}
+    cold_s = float("nan")
+    if cold:
+        with tempfile.TemporaryDirectory() as cache:
+            cold_s = _run_workers([spec], env={**os.environ, "WARP_CACHE_PATH": cache})[0]["start_s"]
+    warm = _run_workers([spec])[0]["start_s"]
+    return {"engine": "newton", "kind": "start", "num_envs": num_envs, "cold_start_s": cold_s, "warm_start_s": warm}
+
+
+def print_table(records: list[dict]) -> None:
+    rows = [r for r in records if r.get("kind") != "start"]
+    mj1 = {(r["terrain"], r["num_envs"]): r["env_steps_per_s"] for r in rows
+           if r["engine"] == "mujoco" and r.get("threads") == 1}
+    print(f"{'engine':8} {'par':>3} {'terrain':7} {'N':>5} {'env-steps/s':>12} {'peak MB':>8} {'MB/env':>7} "
+          f"{'standing':>8} {'/MuJoCo-1t':>10}")
+    for r in rows:
+        par = r.get("processes", r.get("threads"))
+        ref = mj1.get((r["terrain"], r["num_envs"]))
+        ratio = f"{r['env_steps_per_s'] / ref:10.2f}" if ref else f"{'-':>10}"
+        print(f"{r['engine']:8} {par:3d} {r['terrain']:7} {r['num_envs']:5d} {r['env_steps_per_s']:12.0f} "
+              f"{r['peak_rss_mb']:8.0f} {r['peak_rss_mb'] / r['num_envs']:7.3f} {r['standing']:8.2f} {ratio}")
+    for r in records:
+        if r.get("kind") == "start":
+            print(f"Newton world start, N={r['num_envs']}: cold {r['cold_start_s']:.1f} s (empty kernel cache), "
+                  f"warm {r['warm_start_s']:.1f} s")
+    down = [r for r in rows if r["standing"] < 1.0]
+    print("all robots standing under PD while measured" if not down else
+          f"NOT all standing: {[(r['engine'], r['terrain'], r['num_envs'], r['standing']) for r in down]}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="cra-bench", description=__doc__.splitlines()[0])
+    p.add_argument("--num-envs", type=int, nargs="+", default=[64, 256, 1024, 4096])
+    p.add_argument("--terrain", nargs="+", default=list(TERRAINS), choices=TERRAINS)
+    p.add_argument("--engines", nargs="+", default=list(ENGINES), choices=ENGINES)
+    p.add_argument("--parallel", type=int, nargs="+", default=[1, 2], help="Newton processes / MuJoCo threads")
+    p.add_argument("--seconds", type=float, default=3.0, help="minimum measuring time per configuration")
+    p.add_argument("--min-steps", type=int, default=5, help="minimum env steps measured per configuration")
+    p.add_argument("--warmup", type=int, default=5, help="env steps before measuring")
+    p.add_argument("--device", default="cpu")
+    p.add_argument("--no-cold", action="store_true", help="skip the cold-start measurement (~1 min)")
+    p.add_argument("--json", type=Path, help="write the records to this file")
+    p.add_argument("--worker", help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+
+    if args.worker:
+        spec = json.loads(args.worker)
+        rec = _newton_worker(spec) if spec["kind"] == "newton" else _mujoco_worker(spec)
+        print(json.dumps(rec))
+        return 0
+    bad = [n for n in args.num_envs if n < 2 or n % 2]
+    if bad:
+        p.error(f"--num-envs must be even and >= 2 (split over 2 processes), got {bad}")
+
+    records = []
+    with tempfile.TemporaryDirectory() as tmp:
+        mjcf = {}
+        if "mujoco" in args.engines:
+            for t in args.terrain:
+                mjcf[t] = str(Path(tmp) / f"adam_lite_{t}.xml")
+                _run_export(t, mjcf[t])
+        for t in args.terrain:
+            for n in args.num_envs:
+                for engine in args.engines:
+                    for par in args.parallel:
+                        rec = measure(engine, par, t, n, args, mjcf)
+                        records.append(rec)
+                        print(f"  {engine} x{par} {t} N={n}: {rec['env_steps_per_s']:.0f} env-steps/s, "
+                              f"{rec['peak_rss_mb']:.0f} MB, standing {rec['standing']:.2f}", flush=True)
+    records.append(start_times(1024, args.device, cold=not args.no_cold))
+    print_table(records)
+    if args.json:
+        tmp = args.json.with_suffix(args.json.suffix + ".tmp")
+        tmp.write_text(json.dumps(records, indent=1))
+        tmp.replace(args.json)
+        print(f"wrote {args.json}")
+    return 0
+
+
+def _run_export(terrain: str, path: str) -> None:
+    subprocess.run([sys.executable, "-c", f"from tools.bench import export_mjcf; export_mjcf({terrain!r}, {path!r})"],
+                   check=True, capture_output=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
