@@ -47,6 +47,10 @@ def stairs():
 
 
 def _peak_rss_mb() -> float:
+    """Peak RSS of this process since exec. (ru_maxrss would carry the forking parent's high-water mark.)"""
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
