@@ -1,0 +1,66 @@
+"""The adaptive gait clock of CRA-Loco (paper III-E): a per-env phase whose rate and leg offsets the policy sets.
+
+    phi(t + dt) = phi(t) + (1 + alpha * d0) dt          global phase [s], wrapped to [0, T_cycle)
+    s(t) = sin(2 pi (phi / T_cycle + d1))                left leg signal
+    c(t) = sin(2 pi (phi / T_cycle + d2 + psi))          right leg signal, psi = 0.5: legs half a cycle apart
+    m_stance = [s >= gamma, c >= gamma]                  gamma < 0: a double-support band around the crossings
+
+(d0, d1, d2) are the last three action entries times beta_scale. All tensors are [N, ...] on one device.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+
+@dataclass
+class GaitClockConfig:
+    cycle_time: float = 0.8    # T_cycle, the reference period [s] (the vendor's Adam Lite policies: 0.75-0.8 s)
+    alpha: float = 0.5         # how strongly d0 changes the phase rate: rate in [0.5, 1.5] for d0 in [-1, 1]
+    psi: float = 0.5           # right-leg offset in cycles
+    gamma: float = -0.1        # stance threshold; negative = both feet in stance near the crossings
+    beta_scale: float = 1.0    # scale applied to the raw gait actions
+
+    def __post_init__(self):
+        if self.cycle_time <= 0:
+            raise ValueError(f"GaitClockConfig.cycle_time must be > 0, got {self.cycle_time}")
+        if not -1.0 < self.gamma < 1.0:
+            raise ValueError(f"GaitClockConfig.gamma must be in (-1, 1), got {self.gamma}")
+
+
+class GaitClock:
+    """Per-env adaptive clock. ``advance`` takes the raw gait actions [N, 3] and returns the leg signals [N, 2]."""
+
+    def __init__(self, num_envs: int, cfg: GaitClockConfig | None = None, device: str | torch.device = "cpu"):
+        self.cfg = cfg or GaitClockConfig()
+        self.phase = torch.zeros(num_envs, device=device)            # phi [N], seconds in [0, T_cycle)
+        self.deltas = torch.zeros(num_envs, 3, device=device)        # last scaled (d0, d1, d2) [N, 3]
+        self.signals = self._signals()                               # (s, c) [N, 2]
+
+    def _signals(self) -> torch.Tensor:
+        cyc = self.phase / self.cfg.cycle_time
+        offsets = torch.stack([self.deltas[:, 1], self.deltas[:, 2] + self.cfg.psi], 1)
+        return torch.sin(2.0 * math.pi * (cyc.unsqueeze(1) + offsets))
+
+    def advance(self, gait_actions: torch.Tensor, dt: float) -> torch.Tensor:
+        """phi += (1 + alpha d0) dt with d = beta_scale * gait_actions [N, 3]; returns (s, c) [N, 2]."""
+        self.deltas = self.cfg.beta_scale * gait_actions
+        # A negative rate would run the clock backwards; clamp at a standstill instead.
+        rate = (1.0 + self.cfg.alpha * self.deltas[:, 0]).clamp(min=0.0)
+        self.phase = torch.remainder(self.phase + rate * dt, self.cfg.cycle_time)
+        self.signals = self._signals()
+        return self.signals
+
+    @property
+    def stance_mask(self) -> torch.Tensor:
+        """[N, 2] bool: which foot (left, right) the clock wants on the ground."""
+        return self.signals >= self.cfg.gamma
+
+    def reset(self, env_ids: torch.Tensor, phase: torch.Tensor | None = None):
+        """Restart the clock of ``env_ids`` at ``phase`` [n] seconds (default 0) with zero deltas."""
+        self.phase[env_ids] = 0.0 if phase is None else phase
+        self.deltas[env_ids] = 0.0
+        self.signals = self._signals()
