@@ -40,7 +40,7 @@ class WorldConfig:
     substeps: int = 4                   # physics steps per env step (0.02 s); must be even (captured state swap)
     contacts: Literal["feet", "all"] = "feet"  # robot shapes that collide with the terrain (never with each other)
     contact_gap: float = 0.01           # contact detection margin [m]; Newton's 0.1 default makes ~8x more contacts
-    friction: float = 1.0
+    friction: float = 1.0               # robot shapes; per world with set_friction()
     iterations: int = 5                 # constraint solver iterations (early exit on tolerance)
     ls_iterations: int = 10
     nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
@@ -111,7 +111,7 @@ class World:
             use_mujoco_contacts=True, disable_sensors=True)
         # Hitting the iteration cap is expected with few iterations (we measure the stand, not the residual);
         # mujoco_warp would printf a warning from inside the kernel at every step.
-        self.solver.mjw_model.opt.warn_overflow &= ~int(OverflowType.ITERATIONS)
+        self.solver.mjw_model.opt.warn_overflow &= ~int(OverflowType.ITERATIONS | OverflowType.LS_ITERATIONS)
 
         self.state_0, self.state_1 = model.state(), model.state()
         self.control = model.control()
@@ -126,6 +126,7 @@ class World:
                                                     contacts=self._contacts)
         self._base_force_wp = wp.zeros(N * B, dtype=wp.spatial_vector, device=self.device)
 
+        self._changed = 0  # ModelFlags of parameters set but not yet handed to the solver
         self._make_views()
         self.default_joint_q = self.joint_q.clone()
         self.graph = None
@@ -176,6 +177,9 @@ class World:
         builder.default_shape_cfg.gap = cfg.contact_gap
         builder.default_shape_cfg.mu = cfg.friction
         builder.replicate(proto, cfg.num_envs, spacing=(0.0, 0.0, 0.0))
+        # MuJoCo gives a contact the larger friction of its two geoms: (nearly) frictionless terrain lets each world's robot
+        # shapes set the friction, so it can be randomised per world without per-world terrain copies.
+        builder.default_shape_cfg.mu = 1e-3  # ~0 (MuJoCo warns below 1e-5)
         builder.add_ground_plane()
         if terrain is not None:
             quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
@@ -211,7 +215,17 @@ class World:
         self.foot_forces = t(self._contact_sensor.total_force).view(N, len(self.robot.foot_links), 3)
         self.base_force = t(self._base_force_wp).view(N, B, 6)[:, 0]
         self.body_index = {n: i for i, n in enumerate(self._body_names)}
-        self.body_mass = t(self.model.body_mass).view(N, B)  # [N, B] kg; per world, for randomisation
+        # Physical parameters per world [N, ...] (randomise through the set_* methods, which keep them consistent).
+        self.body_mass = t(self.model.body_mass).view(N, B)              # [N, B] kg
+        self.body_com = t(self.model.body_com).view(N, B, 3)             # [N, B, 3] body frame
+        self.joint_kp = t(self.model.joint_target_ke).view(N, -1)[:, FREE_QD:]
+        self.joint_kd = t(self.model.joint_target_kd).view(N, -1)[:, FREE_QD:]
+        self.joint_effort_limit = t(self.model.joint_effort_limit).view(N, -1)[:, FREE_QD:]
+        self._nominal = {k: getattr(self, k).clone() for k in
+                         ("body_mass", "body_com", "joint_kp", "joint_kd", "joint_effort_limit")}
+        self._nominal["body_inertia"] = t(self.model.body_inertia).view(N, B, 3, 3).clone()
+        shape_body = self.model.shape_body.numpy()
+        self._robot_shapes = torch.as_tensor(np.flatnonzero(shape_body >= 0).reshape(N, -1))  # [N, S] world-major
         # The constraint solver starts from the previous step's accelerations; a reset world must not inherit them,
         # so that its trajectory depends only on the state it was reset to.
         self._warmstart = t(self.solver.mjw_data.qacc_warmstart)
@@ -255,6 +269,38 @@ class World:
         mask = torch.zeros(self.num_envs, dtype=torch.bool, device=dev)
         mask[ids] = True
         newton.eval_fk(self.model, self.state_0.joint_q, self.state_0.joint_qd, self.state_0, mask=wp.from_torch(mask))
+
+    # ---------------------------------------------------------------- physical parameters (domain randomisation)
+    def set_mass_scale(self, env_ids: torch.Tensor, scale: torch.Tensor):
+        """Scale every link's mass and inertia of the given worlds by ``scale`` [n, B] relative to nominal."""
+        self.body_mass[env_ids] = self._nominal["body_mass"][env_ids] * scale
+        inertia = wp.to_torch(self.model.body_inertia).view(self.num_envs, self.num_bodies, 3, 3)
+        inertia[env_ids] = self._nominal["body_inertia"][env_ids] * scale[..., None, None]
+        self._changed |= int(newton.ModelFlags.BODY_INERTIAL_PROPERTIES)
+
+    def set_base_com_offset(self, env_ids: torch.Tensor, offset: torch.Tensor):
+        """Move the base link's CoM of the given worlds by ``offset`` [n, 3] (base frame, m) from nominal."""
+        self.body_com[env_ids, 0] = self._nominal["body_com"][env_ids, 0] + offset
+        self._changed |= int(newton.ModelFlags.BODY_INERTIAL_PROPERTIES)
+
+    def set_motor_strength(self, env_ids: torch.Tensor, strength: torch.Tensor):
+        """Scale PD gains and effort limits of the given worlds by ``strength`` [n, J]: torque = strength x nominal."""
+        for k in ("joint_kp", "joint_kd", "joint_effort_limit"):
+            getattr(self, k)[env_ids] = self._nominal[k][env_ids] * strength
+        self._changed |= int(newton.ModelFlags.JOINT_DOF_PROPERTIES | newton.ModelFlags.ACTUATOR_PROPERTIES)
+
+    def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor):
+        """Friction coefficient [n] of every robot shape in the given worlds (the terrain is frictionless: see build)."""
+        mus = wp.to_torch(self.model.shape_material_mu)
+        shapes = self._robot_shapes[env_ids.cpu()].to(mus.device)
+        mus[shapes] = mu.unsqueeze(1).expand(-1, shapes.shape[1]).to(mus.dtype)
+        self._changed |= int(newton.ModelFlags.SHAPE_PROPERTIES)
+
+    def commit_physics(self):
+        """Hand the parameters changed by set_* to the solver (one conversion for all of them, between steps)."""
+        if self._changed:
+            self.solver.notify_model_changed(self._changed)
+            self._changed = 0
 
     def apply_impulse(self, env_ids: torch.Tensor, delta_v: torch.Tensor):
         """Add ``delta_v`` [n, 3] (m/s, world frame) to the base velocity of the given worlds (a push)."""

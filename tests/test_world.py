@@ -125,3 +125,44 @@ def test_reset_of_a_subset_leaves_others_bitwise_untouched(world):
     other.reset(torch.tensor([1]))
     assert torch.equal(other.joint_q[1], other.default_joint_q[1])
     assert other.joint_qd[1].abs().max() == 0
+
+
+def test_randomised_parameters_reach_the_solver(world):
+    """A heavier robot presses harder on the ground; a weaker motor sags; changes stay in their own world."""
+    world.reset()
+    ids = torch.tensor([1])
+    scale = torch.full((1, world.num_bodies), 1.1)
+    world.set_mass_scale(ids, scale)
+    world.set_motor_strength(torch.tensor([2]), torch.full((1, ADAM_LITE.num_joints), 0.8))
+    world.commit_physics()
+    assert total_mass(world)[1] == pytest.approx(1.1 * total_mass(world)[0].item(), rel=1e-6)
+    fz = []
+    for k in range(150):
+        world.step()
+        if k >= 100:
+            fz.append(world.foot_forces[..., 2].sum(1))
+    support = torch.stack(fz).mean(0)
+    assert support[1] / support[0] == pytest.approx(1.1, abs=0.03)
+    knee = ADAM_LITE.joint_names.index("kneePitch_Left")
+    assert world.joint_kp[2, knee] == pytest.approx(0.8 * ADAM_LITE.kp[knee])
+    assert world.root_pos[2, 2] < world.root_pos[0, 2] - 0.002  # weaker motors sag further under the same load
+    world.set_mass_scale(ids, torch.ones(1, world.num_bodies))
+    world.set_motor_strength(torch.tensor([2]), torch.ones(1, ADAM_LITE.num_joints))
+    world.commit_physics()
+
+
+def test_friction_per_world(world):
+    """On ice a pushed robot slides further than on rubber."""
+    world.reset()
+    world.set_friction(torch.tensor([0]), torch.tensor([0.05]))
+    world.set_friction(torch.tensor([1, 2, 3]), torch.tensor([1.0, 1.0, 1.0]))
+    world.commit_physics()
+    world.base_force[:, 0] = 60.0  # a steady horizontal shove, more than ice friction (0.05 x 575 N) holds
+    start = world.body_pos[:, world.body_index["toeLeft"], 0].clone()
+    for _ in range(50):
+        world.step()
+    slide = (world.body_pos[:, world.body_index["toeLeft"], 0] - start).abs()  # the feet slip out backwards
+    world.base_force.zero_()
+    world.set_friction(torch.tensor([0]), torch.tensor([1.0]))
+    world.commit_physics()
+    assert slide[0] > 0.05 and slide[0] > 5 * slide[1:].max()
