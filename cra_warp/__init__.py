@@ -7,3 +7,4 @@ import warp as wp
 
 # Warp logs every kernel module load (hundreds per world); keep the console for our own progress output.
 wp.config.quiet = True
+wp.config.log_level = wp.LOG_WARNING

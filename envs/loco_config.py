@@ -1,0 +1,164 @@
+"""Configuration of the Adam Lite locomotion task (paper III-A, III-C, III-D, IV-A).
+
+Where the paper is silent we take what the legged-locomotion field does; every such choice is written here:
+- Control: policy at 50 Hz (env step 0.02 s = 4 x 0.005 s physics steps, the vendor's Isaac Gym setting).
+  q* = q_ref + action_scale * a_j with the vendor's action scale 0.5; actions clipped to +-clip_joint_actions and the
+  three gait actions to +-1 (with alpha 0.5 the gait rate stays within 0.5x..1.5x).
+- "Average angular speed" (one actor input) is the low-pass filtered yaw rate, as in the vendor's Adam Lite
+  policies whose per-frame observation has the same order as the paper's (filter time constant below).
+- Observation scales are the vendor's (angular velocity 0.25, joint velocity 0.05, command (2, 2, 0.25)); uniform
+  noise as in legged_gym, on the actor's observation only (the critic sees it without noise).
+- Total reward r = sum_i w_i r_i per env step, no dt scaling (the paper's formula).
+- Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
+  base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
+- Physical randomisation (mass, CoM, motor strength, friction) is sampled per env when the env is built and on
+  ``randomize_physics()``; pushes and external forces are resampled on per-env timers during episodes.
+- Variants: "adaptive" (ours), "fixed_cycle" (the gait actions are ignored, so the clock runs at T_cycle with
+  zero offsets; the action stays 26-dim so the network is the same as ours), "clock_free" (no clock inputs and no
+  gait actions: actor observation 79, action 23; the contact-pattern reward is off).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from cra_warp.gait import GaitClockConfig
+from cra_warp.world import WorldConfig
+
+Variant = Literal["adaptive", "fixed_cycle", "clock_free"]
+VARIANTS: tuple[str, ...] = ("adaptive", "fixed_cycle", "clock_free")
+
+
+@dataclass
+class CommandConfig:
+    lin_vel_x: tuple[float, float] = (-0.5, 1.0)     # [m/s]
+    lin_vel_y: tuple[float, float] = (-0.3, 0.3)     # [m/s]
+    ang_vel_yaw: tuple[float, float] = (-0.5, 0.5)   # [rad/s], used when heading_mode is off
+    heading_mode: bool = True                        # yaw rate from a sampled heading (P-controller)
+    heading_gain: float = 0.5
+    resample_time: float = 8.0                       # [s]
+    standing_fraction: float = 0.1                   # share of envs commanded to stand still
+    min_speed: float = 0.1                           # xy commands below this are set to zero
+
+
+@dataclass
+class ObsConfig:
+    lin_vel_scale: float = 2.0
+    ang_vel_scale: float = 0.25
+    joint_vel_scale: float = 0.05
+    command_scale: tuple[float, float, float] = (2.0, 2.0, 0.25)
+    yaw_rate_filter_tau: float = 0.2                 # [s] low-pass of the "average angular speed" input
+    noise: bool = True
+    noise_gravity: float = 0.05
+    noise_joint_pos: float = 0.01                    # [rad]
+    noise_joint_vel: float = 1.5                     # [rad/s]
+    noise_ang_vel: float = 0.2                       # [rad/s]
+    clip: float = 100.0
+
+
+@dataclass
+class RewardConfig:
+    """Weights are Table I's; the term functions live in envs/rewards.py."""
+
+    weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_WEIGHTS))
+    tracking_sigma: float = 0.25
+    torso_sigma: float = 0.1
+    base_height_target: float = 0.88                 # [m] pelvis above the soles (the vendor's reward target)
+    feet_clearance_target: float = 0.08              # [m] swing-foot sole height above the ground
+    feet_min_lateral_distance: float = 0.2           # d_min [m]
+    contact_force_threshold: float = 700.0           # F_th [N], ~1.2 x body weight
+    soft_limit: float = 0.9                          # joint position/velocity/torque limits at 90% of the range
+    contact_threshold: float = 5.0                   # [N] a foot with more vertical force is in contact
+    power_floor: float = 0.1                         # keeps the joint-power ratio finite for a standing robot
+
+
+# Table I of the paper, in its order.
+DEFAULT_WEIGHTS: dict[str, float] = {
+    "lin_vel_tracking": 3.0,
+    "ang_vel_tracking": 3.0,
+    "lin_vel_z": -0.5,
+    "ang_vel_xy": -0.025,
+    "orientation": -1.25,
+    "torso_orientation": 2.0,
+    "joint_acc": -2.5e-7,
+    "joint_power": -2.5e-5,
+    "body_height": -0.1,          # Table I: +0.1 on a squared error; we penalise the error (its intent)
+    "feet_clearance": -0.25,
+    "action_rate": -0.01,
+    "smoothness": -0.01,
+    "feet_stumble": -0.5,
+    "torques": -2.5e-6,
+    "joint_velocity": -1e-4,
+    "joint_tracking_error": -0.25,
+    "arm_joint_deviation": -0.1,
+    "hip_joint_deviation": -0.5,
+    "waist_joint_deviation": -1.5,
+    "joint_pos_limits": -2.0,
+    "joint_vel_limits": -0.1,
+    "torque_limits": -0.1,
+    "no_fly": 0.25,
+    "feet_lateral_distance": 1.0,
+    "feet_slip": -0.05,
+    "feet_ground_parallel": -2.0,
+    "feet_contact_force": -1e-2,
+    "feet_parallel": -2.5,
+    "contact_momentum": -2.5e-2,
+    "contact_pattern": 1.0,
+}
+
+
+@dataclass
+class DomainRandConfig:
+    enabled: bool = True
+    mass_scale: tuple[float, float] = (0.95, 1.05)        # every link, +-5%
+    base_com_offset: float = 0.05                         # [m] per axis, +-5 cm
+    motor_strength: tuple[float, float] = (0.8, 1.2)      # per joint
+    friction: tuple[float, float] = (0.4, 1.25)
+    push_interval: float = 8.0                            # [s]
+    push_max_vel: float = 0.8                             # [m/s] horizontal speed change of a push, 0..max
+    force_interval: float = 4.0                           # [s] external force on the base, resampled
+    force_max: float = 50.0                               # [N] per axis, +-
+
+
+@dataclass
+class LocoConfig:
+    num_envs: int = 64
+    device: str = "cpu"
+    variant: Variant = "adaptive"
+    episode_length_s: float = 20.0
+    world: WorldConfig = field(default_factory=WorldConfig)
+    gait: GaitClockConfig = field(default_factory=GaitClockConfig)
+    commands: CommandConfig = field(default_factory=CommandConfig)
+    obs: ObsConfig = field(default_factory=ObsConfig)
+    rewards: RewardConfig = field(default_factory=RewardConfig)
+    randomization: DomainRandConfig = field(default_factory=DomainRandConfig)
+    terrain: str = "flat"                                 # "flat" or "rough" (the curriculum course)
+    clip_joint_actions: float = 10.0
+    fall_height: float = 0.45                             # [m] pelvis above the ground under it
+    fall_gravity_z: float = -0.5                          # base-frame gravity z above this = tilted over
+    seed: int = 0
+
+    def __post_init__(self):
+        if self.num_envs < 1:
+            raise ValueError(f"LocoConfig.num_envs must be >= 1, got {self.num_envs}")
+        if self.variant not in VARIANTS:
+            raise ValueError(f"LocoConfig.variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.episode_length_s <= 0:
+            raise ValueError(f"LocoConfig.episode_length_s must be > 0, got {self.episode_length_s}")
+        unknown = set(self.rewards.weights) - set(DEFAULT_WEIGHTS)
+        if unknown:
+            raise ValueError(f"LocoConfig.rewards.weights has unknown terms {sorted(unknown)}")
+        self.world.num_envs, self.world.device = self.num_envs, self.device
+
+    @property
+    def uses_clock(self) -> bool:
+        return self.variant != "clock_free"
+
+    @property
+    def num_actions(self) -> int:
+        return 23 if self.variant == "clock_free" else 26
+
+
+HEADING_RANGE = (-math.pi, math.pi)

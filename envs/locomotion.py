@@ -1,0 +1,340 @@
+"""The Adam Lite locomotion task as an rsl-rl 5.5.1 VecEnv (paper III-A, III-C, III-D, IV-A).
+
+One env step (DESIGN.md): actions [N, A] -> gait clock -> PD targets written into the sim -> Newton world steps
+(4 physics substeps, PD torques at each) -> kinematics and terrain sampling -> observations, rewards, dones ->
+the env resets the worlds that ended. Everything after the sim step is batched torch on the sim's device.
+Choices the paper leaves open are listed in envs/loco_config.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+import warp as wp
+from tensordict import TensorDict
+
+from cra_warp.gait import GaitClock
+from cra_warp.kinematics import Kinematics
+from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw
+from cra_warp.world import World
+from envs import observations as obs_layout
+from envs.ground import Ground
+from envs.loco_config import LocoConfig
+from envs.rewards import TERMS
+from robots.adam_lite import ADAM_LITE
+from robots.robot_config import RobotConfig
+
+try:  # rsl-rl's abstract base, when installed (it is a pinned dependency)
+    from rsl_rl.env import VecEnv
+except ImportError:  # pragma: no cover
+    VecEnv = object
+
+GRAVITY = 9.81
+
+
+class LocoEnv(VecEnv):
+    def __init__(self, cfg: LocoConfig | None = None, robot: RobotConfig = ADAM_LITE):
+        self.cfg = cfg = cfg or LocoConfig()
+        self.robot = robot
+        self.device = torch.device(cfg.device)
+        self.num_envs = N = cfg.num_envs
+        J = robot.num_joints
+        self.num_actions = J + (3 if cfg.uses_clock else 0)
+        self.dt = cfg.world.env_dt
+        self.max_episode_length = math.ceil(cfg.episode_length_s / self.dt)
+        self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
+
+        self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed)
+        self.world = World(robot, cfg.world, self.ground.boxes)
+        self.kin = Kinematics(robot, self.device)
+        self.clock = GaitClock(N, cfg.gait, self.device)
+        d = dict(device=self.device)
+
+        # constants [J] / index sets
+        self.default_q = torch.tensor(robot.default_q, **d)
+        lo, hi = torch.tensor(robot.pos_lower, **d), torch.tensor(robot.pos_upper, **d)
+        mid, half = (lo + hi) / 2, (hi - lo) / 2 * cfg.rewards.soft_limit
+        self.soft_pos_lower, self.soft_pos_upper = mid - half, mid + half
+        self.soft_vel_limit = torch.tensor(robot.velocity_limit, **d) * cfg.rewards.soft_limit
+        self.soft_torque_limit = torch.tensor(robot.effort_limit, **d) * cfg.rewards.soft_limit
+        names = robot.joint_names
+        self.arm_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith(("shoulder", "elbow"))], **d)
+        self.hip_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith(("hipRoll", "hipYaw"))], **d)
+        self.waist_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith("waist")], **d)
+        self.torso_body = self.world.body_index["torso"]
+        self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
+        self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
+        self.kp = self.world.joint_kp  # [N, J] view: current (randomised) gains
+        # actuator torques of the last physics substep, [N, J] view of MuJoCo Warp's data
+        self.torques = wp.to_torch(self.world.solver.mjw_data.actuator_force).view(N, J)
+
+        # buffers
+        z = lambda *s: torch.zeros(*s, **d)  # noqa: E731
+        self.actions, self.last_actions, self.last_last_actions = z(N, self.num_actions), z(N, self.num_actions), \
+            z(N, self.num_actions)
+        self.commands = z(N, 3)
+        self.heading = z(N)
+        self.avg_yaw_rate = z(N)
+        self.last_joint_vel = z(N, J)
+        self.last_contact = torch.zeros(N, len(robot.foot_links), dtype=torch.bool, device=self.device)
+        self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
+        self.command_timer = z(N)
+        self.push_timer = z(N)
+        self.force_timer = z(N)
+        self.episode_sums = {k: z(N) for k in TERMS}
+        self.start_xy = z(N, 2)
+        self.commanded_dist = z(N)
+        self.nonfinite_resets = 0
+
+        # randomised physical parameters (also critic inputs) [N, ...]
+        self.nominal_mass = self.world.body_mass.sum(1).clone()
+        self.mass_offset, self.com_offset = z(N), z(N, 3)
+        self.motor_strength, self.friction = torch.ones(N, J, **d), torch.ones(N, **d)
+        self.randomize_physics(torch.arange(N, device=self.device))
+
+        self.layout = obs_layout.actor_layout(J, cfg.uses_clock)
+        self.num_obs = obs_layout.size(self.layout)
+        self.priv_layout = obs_layout.privileged_layout(J, len(robot.foot_links), self.ground.foot_map_cells,
+                                                        self.num_obs)
+        self.reset_idx(torch.arange(N, device=self.device))
+        self._refresh()
+        self.obs = self._observations()
+
+    # ------------------------------------------------------------------ rsl-rl VecEnv
+    def get_observations(self) -> TensorDict:
+        return self.obs
+
+    def step(self, actions: torch.Tensor):
+        cfg = self.cfg
+        finite = torch.isfinite(actions).all(-1)
+        actions = torch.where(finite.unsqueeze(-1), actions, 0.0)  # a non-finite action never reaches the sim
+        J = self.robot.num_joints
+        a = actions.clone()
+        a[:, :J] = a[:, :J].clamp(-cfg.clip_joint_actions, cfg.clip_joint_actions)
+        if cfg.uses_clock:
+            a[:, J:] = a[:, J:].clamp(-1.0, 1.0)
+        self.last_last_actions.copy_(self.last_actions)
+        self.last_actions.copy_(self.actions)
+        self.actions.copy_(a)
+
+        self.world.joint_target.copy_(self.default_q + self.robot.action_scale * a[:, :J])
+        if cfg.uses_clock:
+            gait = a[:, J:] if cfg.variant == "adaptive" else torch.zeros_like(a[:, J:])
+            self.clock.advance(gait, self.dt)
+        self._perturb()
+        self.world.step()
+
+        self.episode_length_buf += 1
+        self.command_timer -= self.dt
+        self._refresh()
+        rew, terms = self._rewards()
+        fell, nonfinite = self._terminations()
+        time_out = self.episode_length_buf >= self.max_episode_length
+        dones = fell | time_out | nonfinite
+        rew = torch.where(nonfinite, 0.0, rew)  # nothing from a broken world reaches the learner
+        for k, v in terms.items():
+            self.episode_sums[k] += v
+
+        extras = {"time_outs": time_out & ~fell & ~nonfinite, "log": {}}
+        ids = dones.nonzero().flatten()
+        if len(ids):
+            extras["log"] = self._episode_log(ids)
+            self.nonfinite_resets += int(nonfinite.sum())
+            self.reset_idx(ids)
+            self._refresh()  # the reset worlds' observations show their new state
+        extras["log"]["/nonfinite_resets"] = float(self.nonfinite_resets)
+        self._resample_commands((self.command_timer <= 0).nonzero().flatten())
+        self.obs = self._observations()
+        return self.obs, rew, dones.long(), extras
+
+    # ------------------------------------------------------------------ state
+    def _refresh(self):
+        """Derived tensors of the current state, shared by observations, rewards and terminations."""
+        w = self.world
+        q = w.root_quat
+        self.root_pos = w.root_pos
+        self.base_lin_vel = quat_rotate_inv(q, w.root_lin_vel)
+        self.base_ang_vel = quat_rotate_inv(q, w.root_ang_vel)
+        down = torch.tensor([0.0, 0.0, -1.0], device=self.device).expand_as(self.base_lin_vel)
+        self.projected_gravity = quat_rotate_inv(q, down)
+        self.torso_gravity = quat_rotate_inv(w.body_quat[:, self.torso_body], down)
+        self.joint_pos, self.joint_vel, self.joint_target = w.joint_pos, w.joint_vel, w.joint_target
+        self.joint_acc = (w.joint_vel - self.last_joint_vel) / self.dt
+        self.last_joint_vel = w.joint_vel.clone()
+        alpha = self.dt / (self.cfg.obs.yaw_rate_filter_tau + self.dt)
+        self.avg_yaw_rate += alpha * (self.base_ang_vel[:, 2] - self.avg_yaw_rate)
+
+        feet = self.kin.feet(w.root_pos, q, w.joint_pos)
+        self.sole_corners, self.sole_centres, self.feet_quat = feet.sole_corners, feet.sole_centres, feet.quat
+        self.feet_lin_vel = w.body_lin_vel[:, self.foot_bodies]
+        self.foot_forces = w.foot_forces
+        self.contact = self.foot_forces[..., 2] > self.cfg.rewards.contact_threshold
+        self.first_contact = self.contact & ~self.last_contact
+        self.last_contact = self.contact.clone()
+        self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
+        self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
+        rel = self.sole_centres - w.root_pos.unsqueeze(1)
+        heading = torch.stack([torch.zeros_like(self.heading), torch.zeros_like(self.heading),
+                               torch.sin(yaw(q) / 2), torch.cos(yaw(q) / 2)], -1)
+        self.feet_pos_yaw = quat_rotate_inv(heading.unsqueeze(1), rel)
+        self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
+
+    def _terminations(self):
+        nonfinite = ~(torch.isfinite(self.world.joint_q).all(-1) & torch.isfinite(self.world.joint_qd).all(-1))
+        low = self.root_pos[:, 2] - self.ground_under_base < self.cfg.fall_height
+        tilted = self.projected_gravity[:, 2] > self.cfg.fall_gravity_z
+        return (low | tilted) & ~nonfinite, nonfinite
+
+    def _rewards(self):
+        total = torch.zeros(self.num_envs, device=self.device)
+        terms = {}
+        for name, weight in self.cfg.rewards.weights.items():
+            if weight == 0.0 or (name == "contact_pattern" and not self.cfg.uses_clock):
+                continue
+            r = weight * torch.nan_to_num(TERMS[name](self), nan=0.0, posinf=0.0, neginf=0.0)
+            terms[name] = r
+            total += r
+        return total, terms
+
+    # ------------------------------------------------------------------ observations
+    def _observations(self) -> TensorDict:
+        o, J = self.cfg.obs, self.robot.num_joints
+        cmd_scale = torch.tensor(o.command_scale, device=self.device)
+        parts = {
+            "command": self.commands * cmd_scale,
+            "gravity": self.projected_gravity,
+            "joint_pos": self.joint_pos - self.default_q,
+            "joint_vel": self.joint_vel * o.joint_vel_scale,
+            "prev_action": self.actions,
+            "ang_vel": self.base_ang_vel * o.ang_vel_scale,
+            "avg_ang_speed": (self.avg_yaw_rate * o.ang_vel_scale).unsqueeze(-1),
+        }
+        if self.cfg.uses_clock:
+            parts["gait_phase"] = self.clock.signals
+        actor = torch.cat([parts[k] for k in self.layout], -1)
+        noisy = actor
+        if o.noise:
+            scale = torch.zeros(self.num_obs, device=self.device)
+            scale[self.layout["gravity"]] = o.noise_gravity
+            scale[self.layout["joint_pos"]] = o.noise_joint_pos
+            scale[self.layout["joint_vel"]] = o.noise_joint_vel * o.joint_vel_scale
+            scale[self.layout["ang_vel"]] = o.noise_ang_vel * o.ang_vel_scale
+            noisy = actor + (2 * torch.rand(actor.shape, device=self.device, generator=self.gen) - 1) * scale
+
+        w = self.world
+        m = w.body_mass.unsqueeze(-1)
+        com = (m * w.body_pos).sum(1) / m.sum(1)
+        force = w.base_force[:, :3]
+        priv = torch.cat([
+            self.base_lin_vel * o.lin_vel_scale,
+            quat_rotate_inv(w.root_quat, com - w.root_pos),
+            self.ground.foot_height_maps(self.sole_centres, self.feet_quat).flatten(1),
+            self.contact.float(),
+            (self.foot_forces / self.robot_weight).flatten(1),
+            self.mass_offset.unsqueeze(-1), self.com_offset, self.motor_strength, self.friction.unsqueeze(-1),
+            force / max(self.cfg.randomization.force_max, 1.0),
+            actor,
+        ], -1)
+        hmap = self.ground.height_map(w.root_pos, w.root_quat).unsqueeze(1)
+        clip = o.clip
+        return TensorDict({"policy": noisy.clamp(-clip, clip), "privileged": priv.clamp(-clip, clip),
+                           "height_map": hmap.clamp(-clip, clip)}, batch_size=[self.num_envs], device=self.device)
+
+    # ------------------------------------------------------------------ resets, commands, randomisation
+    def reset_idx(self, ids: torch.Tensor):
+        n = len(ids)
+        if n == 0:
+            return
+        if self.episode_length_buf[ids].gt(0).any():
+            walked = (self.root_pos[ids, :2] - self.start_xy[ids]).norm(dim=-1)
+            self.ground.update_curriculum(ids, walked, self.commanded_dist[ids])
+        origins = self.ground.spawn_origins(ids)  # [n, 3] ground point
+        q = self.world.default_joint_q[ids].clone()
+        q[:, :2] = origins[:, :2]
+        q[:, 2] = origins[:, 2] + self.robot.base_height + 0.01
+        yaw0 = (2 * torch.rand(n, device=self.device, generator=self.gen) - 1) * math.pi
+        q[:, 3:7] = torch.stack([torch.zeros_like(yaw0), torch.zeros_like(yaw0), torch.sin(yaw0 / 2),
+                                 torch.cos(yaw0 / 2)], -1)
+        self.world.reset(ids, joint_q=q)
+        self.start_xy[ids] = origins[:, :2]
+        self.commanded_dist[ids] = 0.0
+        self.actions[ids] = 0.0
+        self.last_actions[ids] = 0.0
+        self.last_last_actions[ids] = 0.0
+        self.last_joint_vel[ids] = self.world.joint_vel[ids]
+        self.avg_yaw_rate[ids] = 0.0
+        self.last_contact[ids] = False
+        self.episode_length_buf[ids] = 0
+        rd = self.cfg.randomization
+        self.push_timer[ids] = rd.push_interval * torch.rand(n, device=self.device, generator=self.gen)
+        self.force_timer[ids] = 0.0
+        self.clock.reset(ids)
+        for s in self.episode_sums.values():
+            s[ids] = 0.0
+        self._resample_commands(ids)
+
+    def _uniform(self, lo: float, hi: float, *shape) -> torch.Tensor:
+        return lo + (hi - lo) * torch.rand(*shape, device=self.device, generator=self.gen)
+
+    def _resample_commands(self, ids: torch.Tensor):
+        n = len(ids)
+        if n == 0:
+            return
+        c = self.cfg.commands
+        cmd = torch.stack([self._uniform(*c.lin_vel_x, n), self._uniform(*c.lin_vel_y, n),
+                           self._uniform(*c.ang_vel_yaw, n)], -1)
+        cmd[:, :2] *= (cmd[:, :2].norm(dim=-1, keepdim=True) >= c.min_speed)
+        standing = torch.rand(n, device=self.device, generator=self.gen) < c.standing_fraction
+        cmd[standing] = 0.0
+        self.commands[ids] = cmd
+        self.heading[ids] = self._uniform(-math.pi, math.pi, n)
+        self.command_timer[ids] = c.resample_time
+
+    def _perturb(self):
+        """Heading control, pushes and external forces on per-env timers; integrates the commanded distance."""
+        c, rd = self.cfg.commands, self.cfg.randomization
+        if c.heading_mode:
+            err = wrap_angle(self.heading - yaw(self.world.root_quat))
+            moving = self.commands[:, :2].norm(dim=-1) > 0
+            self.commands[:, 2] = torch.where(moving, (c.heading_gain * err).clamp(*c.ang_vel_yaw), 0.0)
+        self.commanded_dist += self.commands[:, :2].norm(dim=-1) * self.dt
+        if not rd.enabled:
+            return
+        self.push_timer -= self.dt
+        push = (self.push_timer <= 0).nonzero().flatten()
+        if len(push):
+            n = len(push)
+            angle = self._uniform(-math.pi, math.pi, n)
+            speed = self._uniform(0.0, rd.push_max_vel, n)
+            dv = torch.stack([speed * torch.cos(angle), speed * torch.sin(angle), torch.zeros_like(speed)], -1)
+            self.world.apply_impulse(push, dv)
+            self.push_timer[push] = rd.push_interval
+        self.force_timer -= self.dt
+        fid = (self.force_timer <= 0).nonzero().flatten()
+        if len(fid):
+            self.world.base_force[fid, :3] = self._uniform(-rd.force_max, rd.force_max, len(fid), 3)
+            self.force_timer[fid] = rd.force_interval
+
+    def randomize_physics(self, ids: torch.Tensor):
+        """Sample mass, base CoM, motor strength and friction for ``ids`` and hand them to the solver."""
+        rd, n, B, J = self.cfg.randomization, len(ids), self.world.num_bodies, self.robot.num_joints
+        if not rd.enabled:
+            return
+        self.world.set_mass_scale(ids, self._uniform(*rd.mass_scale, n, B))
+        self.mass_offset[ids] = self.world.body_mass[ids].sum(1) / self.nominal_mass[ids] - 1.0
+        self.com_offset[ids] = self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
+        self.world.set_base_com_offset(ids, self.com_offset[ids])
+        self.motor_strength[ids] = self._uniform(*rd.motor_strength, n, J)
+        self.world.set_motor_strength(ids, self.motor_strength[ids])
+        self.friction[ids] = self._uniform(*rd.friction, n)
+        self.world.set_friction(ids, self.friction[ids])
+        self.world.commit_physics()
+
+    def _episode_log(self, ids: torch.Tensor) -> dict:
+        secs = (self.episode_length_buf[ids].float() * self.dt).clamp(min=self.dt)
+        log = {f"/reward/{k}": (v[ids] / secs).mean() for k, v in self.episode_sums.items() if v is not None}
+        log["/episode_length_s"] = secs.mean()
+        log["/terrain_level"] = self.ground.mean_level()
+        return log
+

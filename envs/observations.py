@@ -1,0 +1,45 @@
+"""Observation layouts: the one place that says which slice of which group holds what.
+
+Actor ("policy", the paper's o_t, 84 = 3+3+23+23+26+3+1+2 for Adam Lite with the clock):
+    command (vx, vy, yaw rate, scaled) | projected gravity | joint positions - q_ref | joint velocities (scaled) |
+    previous action | base angular velocity (scaled) | average angular speed (filtered yaw rate, scaled) |
+    gait phase (s, c)
+Clock-free: no gait actions in the previous action and no gait phase (79 for Adam Lite).
+
+Critic "privileged" (the paper's s_t): base linear velocity (base frame, scaled) | whole-body CoM relative to the
+base (base frame) | two 5x5 foot-level height maps (left, right; heights relative to the sole) | foot contact
+states | foot contact forces (world frame, / body weight) | randomised parameters: mass offset (fraction),
+base CoM offset, motor strength per joint, friction, current external force (/ 50 N) | the actor observation
+without noise.
+Critic "height_map": [N, 1, 17, 11] heights of the ground relative to the base on a yaw-aligned grid.
+"""
+
+from __future__ import annotations
+
+
+def _layout(parts: list[tuple[str, int]]) -> dict[str, slice]:
+    out, i = {}, 0
+    for name, n in parts:
+        out[name] = slice(i, i + n)
+        i += n
+    return out
+
+
+def actor_layout(num_joints: int, uses_clock: bool) -> dict[str, slice]:
+    """Name -> slice of the actor observation."""
+    num_actions = num_joints + (3 if uses_clock else 0)
+    parts = [("command", 3), ("gravity", 3), ("joint_pos", num_joints), ("joint_vel", num_joints),
+             ("prev_action", num_actions), ("ang_vel", 3), ("avg_ang_speed", 1)]
+    return _layout(parts + ([("gait_phase", 2)] if uses_clock else []))
+
+
+def privileged_layout(num_joints: int, num_feet: int, foot_map_cells: int, actor_dim: int) -> dict[str, slice]:
+    """Name -> slice of the critic's privileged observation."""
+    return _layout([
+        ("base_lin_vel", 3), ("com_pos", 3), ("foot_height_maps", num_feet * foot_map_cells),
+        ("foot_contact", num_feet), ("foot_forces", 3 * num_feet), ("mass_offset", 1), ("com_offset", 3),
+        ("motor_strength", num_joints), ("friction", 1), ("external_force", 3), ("actor", actor_dim)])
+
+
+def size(layout: dict[str, slice]) -> int:
+    return max(s.stop for s in layout.values())
