@@ -47,11 +47,13 @@ class GaitClock:
 
     def advance(self, gait_actions: torch.Tensor, dt: float) -> torch.Tensor:
         """phi += (1 + alpha d0) dt with d = beta_scale * gait_actions [N, 3]; returns (s, c) [N, 2]."""
-        self.deltas = self.cfg.beta_scale * gait_actions
+        # Buffers are updated in place: rsl-rl steps envs under torch.inference_mode, and a buffer re-created there
+        # could not be written outside it later (e.g. by a reset).
+        self.deltas.copy_(self.cfg.beta_scale * gait_actions)
         # A negative rate would run the clock backwards; clamp at a standstill instead.
         rate = (1.0 + self.cfg.alpha * self.deltas[:, 0]).clamp(min=0.0)
-        self.phase = torch.remainder(self.phase + rate * dt, self.cfg.cycle_time)
-        self.signals = self._signals()
+        self.phase.copy_(torch.remainder(self.phase + rate * dt, self.cfg.cycle_time))
+        self.signals.copy_(self._signals())
         return self.signals
 
     @property
@@ -63,4 +65,4 @@ class GaitClock:
         """Restart the clock of ``env_ids`` at ``phase`` [n] seconds (default 0) with zero deltas."""
         self.phase[env_ids] = 0.0 if phase is None else phase
         self.deltas[env_ids] = 0.0
-        self.signals = self._signals()
+        self.signals.copy_(self._signals())

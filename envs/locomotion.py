@@ -161,7 +161,7 @@ class LocoEnv(VecEnv):
         self.torso_gravity = quat_rotate_inv(w.body_quat[:, self.torso_body], down)
         self.joint_pos, self.joint_vel, self.joint_target = w.joint_pos, w.joint_vel, w.joint_target
         self.joint_acc = (w.joint_vel - self.last_joint_vel) / self.dt
-        self.last_joint_vel = w.joint_vel.clone()
+        self.last_joint_vel.copy_(w.joint_vel)  # buffers in place: see GaitClock.advance
         alpha = self.dt / (self.cfg.obs.yaw_rate_filter_tau + self.dt)
         self.avg_yaw_rate += alpha * (self.base_ang_vel[:, 2] - self.avg_yaw_rate)
 
@@ -171,7 +171,7 @@ class LocoEnv(VecEnv):
         self.foot_forces = w.foot_forces
         self.contact = self.foot_forces[..., 2] > self.cfg.rewards.contact_threshold
         self.first_contact = self.contact & ~self.last_contact
-        self.last_contact = self.contact.clone()
+        self.last_contact.copy_(self.contact)
         self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
         self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
         rel = self.sole_centres - w.root_pos.unsqueeze(1)

@@ -1,0 +1,134 @@
+"""The locomotion task on the real batched world: layout, randomisation, pushes, terminations, the VecEnv contract."""
+
+
+
+import pytest
+import torch
+
+from envs.loco_config import DomainRandConfig, LocoConfig, ObsConfig
+from envs.locomotion import LocoEnv
+from robots.adam_lite import ADAM_LITE
+
+J = ADAM_LITE.num_joints
+
+
+@pytest.fixture(scope="module")
+def env():
+    # pushes and external forces off: these tests poke the state themselves
+    rd = DomainRandConfig(push_interval=1e9, force_max=0.0)
+    return LocoEnv(LocoConfig(num_envs=8, obs=ObsConfig(noise=False), randomization=rd))
+
+
+def test_actor_observation_layout(env):
+    env.reset_idx(torch.arange(env.num_envs))
+    env.commands[:] = torch.tensor([0.5, -0.2, 0.3])
+    obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions))
+    o, L = obs["policy"], env.layout
+    assert o.shape == (env.num_envs, 84) and env.num_actions == 26
+    assert list(L) == ["command", "gravity", "joint_pos", "joint_vel", "prev_action", "ang_vel", "avg_ang_speed",
+                       "gait_phase"]
+    assert torch.allclose(o[:, L["gravity"]], torch.tensor([0.0, 0.0, -1.0]), atol=0.05)  # upright
+    assert torch.allclose(o[:, L["command"]], env.commands * torch.tensor([2.0, 2.0, 0.25]))
+    assert o[:, L["joint_pos"]].abs().max() < 0.2                      # near the reference pose
+    assert torch.equal(o[:, L["gait_phase"]], env.clock.signals)
+    a = torch.zeros(env.num_envs, env.num_actions)
+    a[:, 3], a[:, 24] = 0.2, -0.5
+    obs, *_ = env.step(a)
+    assert torch.equal(obs["policy"][:, L["prev_action"]], a)
+    assert obs["privileged"].shape == (env.num_envs, 179)
+    assert torch.allclose(obs["privileged"][:, env.priv_layout["actor"]], obs["policy"])  # noise-free copy
+    assert obs["height_map"].shape == (env.num_envs, 1, 17, 11)
+    assert torch.allclose(obs["height_map"], -env.root_pos[:, 2].view(-1, 1, 1, 1).expand(-1, 1, 17, 11))
+
+
+def test_clock_free_variant_has_79_inputs_and_23_actions():
+    e = LocoEnv(LocoConfig(num_envs=2, variant="clock_free"))
+    obs = e.get_observations()
+    assert e.num_actions == J and obs["policy"].shape == (2, 79) and "gait_phase" not in e.layout
+    _, rew, *_ = e.step(torch.zeros(2, J))
+    assert torch.isfinite(rew).all()
+
+
+def test_randomised_parameters_in_range_and_in_the_sim(env):
+    rd = env.cfg.randomization
+    assert (env.motor_strength >= rd.motor_strength[0]).all() and (env.motor_strength <= rd.motor_strength[1]).all()
+    assert (env.mass_offset.abs() <= 0.05).all() and env.mass_offset.std() > 0
+    assert (env.com_offset.abs() <= rd.base_com_offset).all()
+    assert (env.friction >= rd.friction[0]).all() and (env.friction <= rd.friction[1]).all()
+    kp = torch.tensor(ADAM_LITE.kp)
+    assert torch.allclose(env.world.joint_kp, env.motor_strength * kp)  # what MuJoCo Warp's actuators get
+    heavier = env.mass_offset.argmax()
+    assert env.world.body_mass[heavier].sum() > env.world.body_mass[env.mass_offset.argmin()].sum()
+    mj_mass = env.world.solver.mjw_model.body_mass.numpy()  # [N, bodies + world body]
+    assert mj_mass[int(heavier)].sum() == pytest.approx(float(env.world.body_mass[heavier].sum()), rel=1e-5)
+
+
+def test_push_changes_base_velocity_by_the_sampled_amount():
+    rd = DomainRandConfig(push_interval=1e9, push_max_vel=0.8, force_max=0.0)
+    e = LocoEnv(LocoConfig(num_envs=4, randomization=rd))
+    v0 = e.world.root_lin_vel.clone()
+    e.push_timer[1] = 0.0  # robot 1 is due
+    e._perturb()
+    dv = e.world.root_lin_vel - v0
+    assert dv[[0, 2, 3]].abs().max() == 0
+    assert 0 < dv[1, :2].norm() <= 0.8 and dv[1, 2] == 0
+    assert e.push_timer[1] == pytest.approx(rd.push_interval)
+
+
+def test_time_outs_and_falls(env):
+    env.reset_idx(torch.arange(env.num_envs))
+    env.episode_length_buf[1] = env.max_episode_length - 1
+    q = env.world.joint_q[2].clone()
+    q[2] = 0.3  # pelvis 30 cm above the ground: fallen
+    env.world.reset(torch.tensor([2]), joint_q=q.unsqueeze(0))
+    _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+    assert dones.tolist() == [0, 1, 1, 0, 0, 0, 0, 0]
+    assert extras["time_outs"].tolist() == [False, True, False, False, False, False, False, False]
+    assert env.episode_length_buf[1] == 0 and env.root_pos[2, 2] > 0.8  # both reset to a stand
+
+
+def test_nan_in_one_world_resets_that_world_only(env):
+    env.reset_idx(torch.arange(env.num_envs))
+    for _ in range(3):
+        env.step(torch.zeros(env.num_envs, env.num_actions))
+    before = env.nonfinite_resets
+    lengths = env.episode_length_buf.clone()
+    env.world.joint_qd[3, 10] = float("nan")
+    obs, rew, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+    assert dones[3] == 1 and dones.sum() == 1
+    assert env.nonfinite_resets == before + 1 and extras["log"]["/nonfinite_resets"] == before + 1
+    assert rew[3] == 0 and torch.isfinite(rew).all()
+    assert all(torch.isfinite(v).all() for v in obs.values())
+    assert torch.equal(env.episode_length_buf[[0, 1, 2, 4]], lengths[[0, 1, 2, 4]] + 1)
+    # a non-finite action never reaches the sim
+    a = torch.zeros(env.num_envs, env.num_actions)
+    a[5, 0] = float("inf")
+    env.step(a)
+    assert torch.isfinite(env.world.joint_target).all() and env.actions[5].abs().max() == 0
+
+
+def test_zero_action_rollout_keeps_most_robots_up(env):
+    env.reset_idx(torch.arange(env.num_envs))
+    fell = torch.zeros(env.num_envs, dtype=torch.bool)
+    for _ in range(200):
+        _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+        fell |= dones.bool() & ~extras["time_outs"]
+    assert fell.float().mean() <= 0.25
+
+
+def test_rsl_rl_runner_contract(env, tmp_path):
+    """One learning iteration of rsl-rl's own OnPolicyRunner on this env, with plain MLPs."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    mlp = {"class_name": "MLPModel", "hidden_dims": [32], "activation": "elu"}
+    cfg = {"num_steps_per_env": 4, "save_interval": 100, "obs_groups": {"actor": ["policy"],
+                                                                        "critic": ["policy", "privileged"]},
+           "actor": {**mlp, "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
+           "critic": mlp, "algorithm": {"class_name": "PPO", "num_learning_epochs": 1, "num_mini_batches": 2},
+           "run_name": "contract", "logger": "tensorboard"}
+    runner = OnPolicyRunner(env, cfg, log_dir=None, device="cpu")
+    runner.learn(1)
+    assert runner.current_learning_iteration == 0
+    assert isinstance(env.max_episode_length, int) and env.episode_length_buf.shape == (env.num_envs,)
+    env.reset_idx(torch.tensor([0]))  # buffers stay writable outside inference mode
+
