@@ -46,7 +46,8 @@ class GaitClock:
         return torch.sin(2.0 * math.pi * (cyc.unsqueeze(1) + offsets))
 
     def advance(self, gait_actions: torch.Tensor, dt: float) -> torch.Tensor:
-        """phi += (1 + alpha d0) dt with d = beta_scale * gait_actions [N, 3]; returns (s, c) [N, 2]."""
+        """phi += (1 + alpha d0) dt with d = beta_scale * gait_actions [N, 3]; returns (s, c) [N, 2] (the clock's
+        own buffer, updated by the next call: clone it to keep it)."""
         # Buffers are updated in place: rsl-rl steps envs under torch.inference_mode, and a buffer re-created there
         # could not be written outside it later (e.g. by a reset).
         self.deltas.copy_(self.cfg.beta_scale * gait_actions)

@@ -13,7 +13,7 @@ DT = 0.02
 def run(clock: GaitClock, actions: torch.Tensor, steps: int) -> torch.Tensor:
     out = []
     for _ in range(steps):
-        out.append(clock.advance(actions, DT))
+        out.append(clock.advance(actions, DT).clone())  # advance returns the clock's own buffer
     return torch.stack(out)  # [T, N, 2]
 
 
@@ -42,7 +42,7 @@ def test_offsets_shift_s_and_c():
     cfg = GaitClockConfig(cycle_time=1.0, psi=0.5)
     base = GaitClock(1, cfg)
     shifted = GaitClock(1, cfg)
-    s0 = base.advance(torch.zeros(1, 3), 0.1)
+    s0 = base.advance(torch.zeros(1, 3), 0.1).clone()
     s1 = shifted.advance(torch.tensor([[0.0, 0.25, -0.1]]), 0.1)
     phi = 0.1
     assert s0[0, 0] == pytest.approx(math.sin(2 * math.pi * phi), abs=1e-6)
