@@ -25,7 +25,7 @@ from pathlib import Path
 
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
 TERRAINS = ("flat", "stairs")
-ENGINES = ("newton", "mujoco")
+ENGINES = ("newton", "mujoco", "task")  # task: the full locomotion env (Newton + obs, rewards, resets)
 
 
 def stairs():
@@ -80,6 +80,39 @@ def _newton_worker(spec: dict) -> dict:
     return {"engine": "newton", "num_envs": spec["num_envs"], "env_steps_per_s": steps * spec["num_envs"] / dt,
             "peak_rss_mb": _peak_rss_mb(), "standing": float(up.float().mean()), "start_s": start_s,
             "bodies": world.num_bodies}
+
+
+def _task_worker(spec: dict) -> dict:
+    """The locomotion task with zero actions: env-steps/s and the share of time spent outside the Newton step."""
+    import torch
+
+    from envs.loco_config import LocoConfig
+    from envs.locomotion import LocoEnv
+
+    torch.set_num_threads(1)  # the learner's threads are a separate budget; one core per process here
+    t0 = time.perf_counter()
+    env = LocoEnv(LocoConfig(num_envs=spec["num_envs"], device=spec["device"], terrain=spec["terrain"]))
+    start_s = time.perf_counter() - t0
+    actions = torch.zeros(env.num_envs, env.num_actions, device=env.device)
+    sim_step, sim_s = env.world.step, [0.0]
+
+    def timed_sim_step():
+        t = time.perf_counter()
+        sim_step()
+        sim_s[0] += time.perf_counter() - t
+
+    env.world.step = timed_sim_step
+    with torch.inference_mode():
+        for _ in range(spec["warmup"]):
+            env.step(actions)
+        sim_s[0], steps, t0 = 0.0, 0, time.perf_counter()
+        while steps < spec["min_steps"] or time.perf_counter() - t0 < spec["seconds"]:
+            env.step(actions)
+            steps += 1
+    dt = time.perf_counter() - t0
+    return {"engine": "task", "num_envs": env.num_envs, "env_steps_per_s": steps * env.num_envs / dt,
+            "peak_rss_mb": _peak_rss_mb(), "standing": float("nan"), "start_s": start_s,
+            "overhead_vs_sim": (dt - sim_s[0]) / sim_s[0]}
 
 
 def wp_sync(world):
@@ -174,17 +207,19 @@ def _run_workers(specs: list[dict], env: dict | None = None) -> list[dict]:
 
 def measure(engine: str, parallel: int, terrain: str, num_envs: int, args, mjcf: dict[str, str]) -> dict:
     base = {"terrain": terrain, "seconds": args.seconds, "min_steps": args.min_steps, "warmup": args.warmup}
-    if engine == "newton":
-        per = [{**base, "kind": "newton", "num_envs": num_envs // parallel, "device": args.device}] * parallel
+    if engine in ("newton", "task"):
+        per = [{**base, "kind": engine, "num_envs": num_envs // parallel, "device": args.device}] * parallel
         recs = _run_workers(per)
     else:
         spec = {**base, "kind": "mujoco", "num_envs": num_envs, "threads": parallel, "mjcf": mjcf[terrain],
                 "sim_dt": 0.005, "substeps": 4, "ground": stairs()[1] if terrain == "stairs" else 0.0}
         recs = _run_workers([spec])
-    return {"engine": engine, ("processes" if engine == "newton" else "threads"): parallel, "terrain": terrain,
-            "num_envs": num_envs, "env_steps_per_s": sum(r["env_steps_per_s"] for r in recs),
-            "peak_rss_mb": sum(r["peak_rss_mb"] for r in recs),
-            "standing": min(r["standing"] for r in recs)}
+    rec = {"engine": engine, ("threads" if engine == "mujoco" else "processes"): parallel, "terrain": terrain,
+           "num_envs": num_envs, "env_steps_per_s": sum(r["env_steps_per_s"] for r in recs),
+           "peak_rss_mb": sum(r["peak_rss_mb"] for r in recs), "standing": min(r["standing"] for r in recs)}
+    if engine == "task":
+        rec["overhead_vs_sim"] = max(r["overhead_vs_sim"] for r in recs)
+    return rec
 
 
 def start_times(num_envs: int, device: str, cold: bool) -> dict:
@@ -215,6 +250,10 @@ def print_table(records: list[dict]) -> None:
         if r.get("kind") == "start":
             print(f"Newton world start, N={r['num_envs']}: cold {r['cold_start_s']:.1f} s (empty kernel cache), "
                   f"warm {r['warm_start_s']:.1f} s")
+    for r in rows:
+        if r["engine"] == "task":
+            print(f"task {r['terrain']} N={r['num_envs']} x{r['processes']}: env overhead (obs, rewards, sampling, "
+                  f"resets) = {100 * r['overhead_vs_sim']:.0f}% of the Newton step time")
     down = [r for r in rows if r["standing"] < 1.0]
     print("all robots standing under PD while measured" if not down else
           f"NOT all standing: {[(r['engine'], r['terrain'], r['num_envs'], r['standing']) for r in down]}")
@@ -237,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.worker:
         spec = json.loads(args.worker)
-        rec = _newton_worker(spec) if spec["kind"] == "newton" else _mujoco_worker(spec)
+        rec = {"newton": _newton_worker, "mujoco": _mujoco_worker, "task": _task_worker}[spec["kind"]](spec)
         print(json.dumps(rec))
         return 0
     bad = [n for n in args.num_envs if n < 2 or n % 2]
@@ -254,6 +293,8 @@ def main(argv: list[str] | None = None) -> int:
         for t in args.terrain:
             for n in args.num_envs:
                 for engine in args.engines:
+                    if engine == "task" and t != "flat":
+                        continue  # the task's stairs live in its rough-terrain course, benchmarked separately
                     for par in args.parallel:
                         rec = measure(engine, par, t, n, args, mjcf)
                         records.append(rec)
