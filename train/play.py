@@ -1,0 +1,108 @@
+"""cra-play: run a policy (or a zero / random agent) in the locomotion task and report how it walks.
+
+    cra-play runs/<run>/model_40.pt                 # the trained policy, deterministic actions
+    cra-play --agent zero --num-envs 16             # no policy: the PD stand at the reference pose
+    cra-play runs/<run>/model_40.pt --usd rollout.usda   # also write an animated USD (any USD viewer plays it)
+
+Reports the velocity tracking error, falls per robot-minute and the distance walked.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from train.train import VARIANTS, UsageError, check_device
+
+
+@dataclass
+class PlayArgs:
+    checkpoint: Path | None = None     # a cra-train checkpoint (model_<it>.pt); needed for --agent policy
+    agent: str = "policy"              # policy | zero | random
+    task: str = "flat"                 # flat | rough
+    variant: str = "ours"              # the variant the checkpoint was trained with
+    num_envs: int = 16
+    steps: int = 500                   # env steps (0.02 s each)
+    device: str = "cpu"
+    usd: Path | None = None            # write the rollout as an animated USD stage here
+    seed: int = 0
+
+
+def make_agent(a: PlayArgs, env):
+    import torch
+
+    if a.agent == "zero":
+        return lambda obs: torch.zeros(env.num_envs, env.num_actions, device=env.device)
+    if a.agent == "random":
+        return lambda obs: 0.3 * torch.randn(env.num_envs, env.num_actions, device=env.device)
+    from cra_warp.learning.checkpoint import load_policy
+
+    return load_policy(a.checkpoint, env, device=a.device)
+
+
+def run(a: PlayArgs) -> dict:
+    import torch
+
+    from envs.loco_config import LocoConfig
+    from envs.locomotion import LocoEnv
+
+    env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0], terrain=a.task,
+                             seed=a.seed))
+    agent = make_agent(a, env)
+    viewer = None
+    if a.usd is not None:
+        import newton.viewer
+
+        viewer = newton.viewer.ViewerUSD(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
+        viewer.set_model(env.world.model)
+    obs = env.get_observations()
+    falls, sq_err, dist = 0, torch.zeros(env.num_envs, device=env.device), torch.zeros(env.num_envs, device=env.device)
+    with torch.inference_mode():
+        for k in range(a.steps):
+            prev_xy = env.root_pos[:, :2].clone()
+            cmd = env.commands.clone()
+            obs, _, dones, extras = env.step(agent(obs))
+            sq_err += ((cmd[:, :2] - env.base_lin_vel[:, :2]) ** 2).sum(-1)
+            moved = (env.root_pos[:, :2] - prev_xy).norm(dim=-1)
+            dist += torch.where(dones.bool(), 0.0, moved)  # a reset teleports the robot: not walked
+            falls += int((dones.bool() & ~extras["time_outs"]).sum())
+            if viewer is not None:
+                viewer.begin_frame(k * env.dt)
+                viewer.log_state(env.world.state_0)
+                viewer.end_frame()
+    if viewer is not None:
+        viewer.close()
+    minutes = a.steps * env.dt / 60 * env.num_envs
+    return {"agent": a.agent, "num_envs": env.num_envs, "seconds": a.steps * env.dt,
+            "vel_tracking_rmse": float((sq_err / a.steps).sqrt().mean()), "falls_per_robot_minute": falls / minutes,
+            "mean_distance_m": float(dist.mean())}
+
+
+def main(argv: list[str] | None = None) -> int:
+    import tyro
+
+    a = tyro.cli(PlayArgs, args=argv, description=__doc__.split("\n\n")[0])
+    try:
+        if a.agent not in ("policy", "zero", "random"):
+            raise UsageError(f"--agent must be policy, zero or random, got {a.agent!r}")
+        if a.agent == "policy" and (a.checkpoint is None or not a.checkpoint.is_file()):
+            raise UsageError(f"a policy needs a checkpoint file, got {a.checkpoint}")
+        if a.variant not in VARIANTS:
+            raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
+        if a.num_envs < 1 or a.steps < 1:
+            raise UsageError(f"--num-envs and --steps must be >= 1, got {a.num_envs}, {a.steps}")
+        check_device(a.device)
+        report = run(a)
+    except UsageError as e:
+        print(f"cra-play: {e}", file=sys.stderr)
+        return 2
+    for k, v in report.items():
+        print(f"{k:>24}: {v:.3f}" if isinstance(v, float) else f"{k:>24}: {v}")
+    if a.usd is not None:
+        print(f"{'usd':>24}: {a.usd}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

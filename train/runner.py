@@ -1,0 +1,69 @@
+"""rsl-rl's OnPolicyRunner with three changes a user of this stack needs:
+
+- checkpoints are written atomically (temp file + rename): a run stopped mid-save never leaves a torn file;
+- data-parallel training on the CPU: rsl-rl hard-codes NCCL and cuda:<local_rank>; on "cpu" we use gloo so that
+  torchrun's processes each drive one core (CUDA keeps rsl-rl's own NCCL path);
+- one compact progress line per iteration (iteration, env-steps/s, reward, episode length, InfoNCE accuracy, ETA)
+  instead of rsl-rl's 40-line block; everything still goes to TensorBoard through rsl-rl's logger.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import io
+import os
+import statistics
+import time
+
+import torch
+from rsl_rl.runners import OnPolicyRunner
+
+
+class CraRunner(OnPolicyRunner):
+    def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", quiet: bool = False):
+        self._quiet = quiet
+        self._t0 = time.time()
+        super().__init__(env, train_cfg, log_dir=log_dir, device=device)
+        log = self.logger.log
+
+        def compact_log(**kw):
+            with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl's console block; TensorBoard still written
+                log(**kw)
+            if not self._quiet and self.gpu_global_rank == 0:
+                self._progress(**kw)
+
+        self.logger.log = compact_log
+
+    def _progress(self, it, start_it, total_it, collect_time, learn_time, loss_dict, **_):
+        lg = self.logger
+        steps = self.cfg["num_steps_per_env"] * self.env.num_envs * self.gpu_world_size
+        done = it + 1 - start_it
+        eta = (time.time() - self._t0) / done * (total_it - start_it - done)
+        parts = [f"it {it + 1}/{total_it}", f"{steps / (collect_time + learn_time):6.0f} env-steps/s",
+                 f"collect {collect_time:.1f}s update {learn_time:.1f}s"]
+        if len(lg.rewbuffer):
+            parts += [f"reward {statistics.mean(lg.rewbuffer):7.2f}",
+                      f"ep len {statistics.mean(lg.lenbuffer) * self.env.dt:5.1f}s"]
+        if "infonce_top1" in loss_dict:
+            parts.append(f"InfoNCE top-1 {loss_dict['infonce_top1']:.2f} (chance {loss_dict['infonce_chance']:.3f})")
+        parts.append(f"ETA {datetime.timedelta(seconds=int(eta))}")
+        print(" | ".join(parts), flush=True)
+
+    def save(self, path: str, infos: dict | None = None) -> None:
+        tmp = f"{path}.tmp"
+        super().save(tmp, infos)
+        os.replace(tmp, path)
+
+    def _configure_multi_gpu(self) -> None:
+        world_size = int(os.getenv("WORLD_SIZE", "1"))
+        if world_size <= 1 or str(self.device).startswith("cuda"):
+            return super()._configure_multi_gpu()
+        # CPU data parallel: rsl-rl's bookkeeping with gloo instead of NCCL and no CUDA device binding.
+        self.gpu_world_size, self.is_distributed = world_size, True
+        self.gpu_local_rank = int(os.getenv("LOCAL_RANK", "0"))
+        self.gpu_global_rank = int(os.getenv("RANK", "0"))
+        self.cfg["multi_gpu"] = {"global_rank": self.gpu_global_rank, "local_rank": self.gpu_local_rank,
+                                 "world_size": world_size}
+        if not torch.distributed.is_initialized():
+            torch.distributed.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world_size)
