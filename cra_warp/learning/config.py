@@ -1,0 +1,171 @@
+"""Typed learner configuration and its translation into rsl-rl 5.5.1's runner cfg dict.
+
+Defaults follow the paper where it says something (III-A..III-C, IV-A: GRU/RNN 256 for actor and critic, CNN
+feature u_t of 32, InfoNCE with a temperature) and the legged_gym/rsl-rl PPO defaults where it does not (clip 0.2,
+gamma 0.99, lambda 0.95, adaptive KL schedule with desired KL 0.01, lr 1e-3, 5 epochs x 4 mini-batches,
+24 env steps per iteration). Every choice the paper leaves open is commented at its field.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Literal
+
+ContrastVariant = Literal["same_step", "sequential", "none"]
+CONTRAST_VARIANTS: tuple[str, ...] = ("same_step", "sequential", "none")
+
+# Where rsl-rl's resolve_callable finds our classes ("module:Class" keeps the cfg dict serialisable).
+ACTOR_CLASS = "cra_warp.learning.models:CRAActor"
+CRITIC_CLASS = "cra_warp.learning.models:CRACritic"
+ALGORITHM_CLASS = "cra_warp.learning.ppo:CRAPPO"
+
+
+@dataclass
+class ActorConfig:
+    """RNN_a over o_t, then a small MLP to the Gaussian mean (paper III-A.1)."""
+
+    # GRU, not LSTM: the paper's Eq. (1) has one 256-dim recurrent state h_t and a 256-dim output m_a; a GRU's output
+    # IS its hidden state, so m_a = h_t exactly. It also carries one state tensor instead of two (one h_in/h_out pair
+    # in the ONNX graph for the deploy program) and has 3 gates instead of 4: ~25% less compute in the update, which
+    # dominates our CPU iteration time.
+    rnn_type: str = "gru"
+    rnn_hidden_dim: int = 256
+    rnn_num_layers: int = 1
+    hidden_dims: tuple[int, ...] = (128, 64)     # "a small MLP" (paper); 256 -> 128 -> 64 -> A
+    activation: str = "elu"
+    obs_normalization: bool = True               # running mean/std; copied into the exported graph
+    init_std: float = 1.0                        # Gaussian std at start (rsl-rl default), in action units
+    std_type: str = "scalar"                     # "scalar" or "log" parameterisation of the state-free std
+
+
+@dataclass
+class CriticConfig:
+    """RNN_c over s_t (m_c, 256) and a CNN over the 17x11 height map (u_t, 32); z_t = [m_c, u_t] (288) -> V."""
+
+    rnn_type: str = "gru"                        # same reasoning as the actor
+    rnn_hidden_dim: int = 256
+    rnn_num_layers: int = 1
+    # The paper says "a fully connected layer" on z_t; rsl-rl's MLP needs >= 1 hidden layer and a value head on 288
+    # features benefits from one: 288 -> 256 -> 128 -> 1.
+    hidden_dims: tuple[int, ...] = (256, 128)
+    activation: str = "elu"
+    obs_normalization: bool = True
+    # rsl-rl CNN over [1, 17, 11]: conv3x3 s1 -> [16, 15, 9], conv3x3 s2 -> [32, 7, 4], flatten 896, then a linear
+    # layer + ELU to u_t (32). No global pooling: where an edge is in the map matters for the value.
+    cnn_channels: tuple[int, ...] = (16, 32)
+    cnn_kernel_size: int = 3
+    cnn_stride: tuple[int, ...] = (1, 2)
+    cnn_latent_dim: int = 32                     # u_t
+
+
+@dataclass
+class ContrastConfig:
+    """Contrastive module (paper III-C): MLP_S(m_a) vs MLP_T([stop_grad(u_t), s_t]) with InfoNCE."""
+
+    variant: ContrastVariant = "same_step"       # ours | "sequential" (target = next step) | "none" (ablation)
+    weight: float = 0.1                          # loss = PPO loss + weight * InfoNCE (paper: not given; untuned)
+    tau: float = 0.1                             # temperature (paper: not given; the usual value for cosine logits)
+    # L2-normalise I_S and I_T (cosine logits in [-1/tau, 1/tau]). The paper's Eq. uses a plain dot product; with
+    # unnormalised embeddings the loss can also be lowered by inflating their norms, which feeds ever larger
+    # gradients into the actor's RNN (that the policy shares). Normalised logits are bounded and make tau mean what
+    # it says. False reproduces the paper's literal dot product.
+    normalize: bool = True
+    embed_dim: int = 256                         # I_S, I_T in R^256 (paper)
+    hidden_dims: tuple[int, ...] = (256,)        # one hidden layer in each encoder head
+    activation: str = "elu"
+    # Cap on the samples one InfoNCE term uses: a random subset of the mini-batch's (env, step) samples when it has
+    # more (0 = all, the paper's literal form). The logits are K x K, so the term costs O(K^2 D): at N=1024 a whole
+    # mini-batch (K = 24 x 256 = 6144) took ~1.2 TFLOP per update, more than the rest of the update together
+    # (~0.8 TFLOP); K = 2048 costs ~0.13 TFLOP and still gives 2047 negatives per positive. Below N=342 (with
+    # 24 steps, 4 mini-batches) the whole mini-batch is used anyway.
+    max_samples: int = 2048
+
+    def __post_init__(self):
+        if self.variant not in CONTRAST_VARIANTS:
+            raise ValueError(f"ContrastConfig.variant must be one of {CONTRAST_VARIANTS}, got {self.variant!r}")
+        if self.tau <= 0:
+            raise ValueError(f"ContrastConfig.tau must be > 0, got {self.tau}")
+        if self.weight < 0:
+            raise ValueError(f"ContrastConfig.weight must be >= 0, got {self.weight}")
+        if self.max_samples < 0 or self.max_samples == 1:
+            raise ValueError(f"ContrastConfig.max_samples must be 0 (all) or >= 2, got {self.max_samples}")
+
+
+@dataclass
+class PPOConfig:
+    """rsl-rl PPO hyper-parameters (arguments of rsl_rl.algorithms.PPO)."""
+
+    clip_param: float = 0.2                      # paper: epsilon e.g. 0.2
+    gamma: float = 0.99
+    lam: float = 0.95
+    value_loss_coef: float = 1.0
+    # Entropy of the 26-dim Gaussian is summed over dims, so the bonus scales with the action count; 0.005 keeps
+    # exploration pressure near legged_gym's 0.01 for 12-dof robots' per-dim level.
+    entropy_coef: float = 0.005
+    learning_rate: float = 1e-3
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4                    # recurrent: splits the envs, each mini-batch = N/4 whole rollouts
+    schedule: str = "adaptive"                   # lr adapted to keep KL(old || new) near desired_kl
+    desired_kl: float = 0.01
+    max_grad_norm: float = 1.0
+    use_clipped_value_loss: bool = True
+    normalize_advantage_per_mini_batch: bool = False
+
+
+@dataclass
+class LearnerConfig:
+    actor: ActorConfig = field(default_factory=ActorConfig)
+    critic: CriticConfig = field(default_factory=CriticConfig)
+    contrast: ContrastConfig = field(default_factory=ContrastConfig)
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    num_steps_per_env: int = 24                  # rollout length per env and iteration (= recurrent BPTT window)
+    save_interval: int = 100                     # iterations between checkpoints (only when a log_dir is given)
+    # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
+    obs_groups: dict[str, list[str]] = field(default_factory=lambda: {
+        "actor": ["policy"], "critic": ["privileged", "height_map"]})
+    logger: str = "tensorboard"
+    experiment_name: str = "cra_loco"
+    run_name: str = ""
+    check_for_nan: bool = True
+
+
+def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) -> dict:
+    """rsl-rl 5.5.1 OnPolicyRunner train_cfg for ``cfg``.
+
+    ``class_objects=False`` writes the classes as "module:Class" strings (a serialisable dict); True puts the class
+    objects themselves (rsl-rl's resolve_callable takes both).
+    """
+    cfg = cfg or LearnerConfig()
+    a, c, p = cfg.actor, cfg.critic, cfg.ppo
+    if class_objects:
+        from cra_warp.learning.models import CRAActor, CRACritic
+        from cra_warp.learning.ppo import CRAPPO
+        actor_cls, critic_cls, alg_cls = CRAActor, CRACritic, CRAPPO
+    else:
+        actor_cls, critic_cls, alg_cls = ACTOR_CLASS, CRITIC_CLASS, ALGORITHM_CLASS
+    return {
+        "num_steps_per_env": cfg.num_steps_per_env,
+        "save_interval": cfg.save_interval,
+        "obs_groups": {k: list(v) for k, v in cfg.obs_groups.items()},
+        "logger": cfg.logger,
+        "experiment_name": cfg.experiment_name,
+        "run_name": cfg.run_name,
+        "check_for_nan": cfg.check_for_nan,
+        "actor": {
+            "class_name": actor_cls,
+            "hidden_dims": list(a.hidden_dims), "activation": a.activation, "obs_normalization": a.obs_normalization,
+            "rnn_type": a.rnn_type, "rnn_hidden_dim": a.rnn_hidden_dim, "rnn_num_layers": a.rnn_num_layers,
+            "distribution_cfg": {"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": a.init_std,
+                                 "std_type": a.std_type},
+        },
+        "critic": {
+            "class_name": critic_cls,
+            "hidden_dims": list(c.hidden_dims), "activation": c.activation, "obs_normalization": c.obs_normalization,
+            "rnn_type": c.rnn_type, "rnn_hidden_dim": c.rnn_hidden_dim, "rnn_num_layers": c.rnn_num_layers,
+            "cnn_cfg": {"output_channels": list(c.cnn_channels), "kernel_size": c.cnn_kernel_size,
+                        "stride": list(c.cnn_stride), "activation": c.activation},
+            "cnn_latent_dim": c.cnn_latent_dim,
+        },
+        "algorithm": {"class_name": alg_cls, **asdict(p), "optimizer": "adam", "rnd_cfg": None, "symmetry_cfg": None,
+                      "contrast_cfg": asdict(cfg.contrast)},
+    }

@@ -1,0 +1,146 @@
+"""PPO with the contrastive term: rsl-rl 5.5.1's PPO, plus weight * InfoNCE on the same mini-batches.
+
+How the term gets into rsl-rl's loss (the smallest override that works in 5.5.1): ``PPO.update()`` is one method
+with no auxiliary-loss hook except the symmetry extension's slot, which runs inside the mini-batch loop right after
+the actor and critic forwards, under the same autocast, and adds ``mirror_loss_coeff * compute_loss(...)`` to the
+loss before the single ``backward()``. rsl-rl refuses a symmetry config for recurrent models, so that slot is free
+here: we put a small adapter there (:class:`_ContrastLossHook`) instead of copying the ~150-line update loop. The
+PPO loss, clipping, KL-adaptive learning rate, gradient-norm clipping and optimizer step stay rsl-rl's own code.
+The adapter counts its calls and ``update()`` checks the count, so an rsl-rl release that changes the loop fails
+loudly instead of silently training without the contrast.
+Differences from plain PPO: the two encoder heads are an extra optimizer param group (same lr, adapted by the
+same KL schedule); their gradients are not norm-clipped (rsl-rl clips actor and critic only; Adam is insensitive
+to the gradient scale), and they are saved/loaded as ``contrast_state_dict`` in the checkpoint.
+"""
+
+from __future__ import annotations
+
+from itertools import chain
+
+import torch
+
+from rsl_rl.algorithms import PPO
+from rsl_rl.utils import reduce_gradients_in_buckets
+
+from cra_warp.learning.config import ContrastConfig
+from cra_warp.learning.contrastive import ContrastiveHeads, contrast_pairs, episode_ids, info_nce, subsample
+from cra_warp.learning.models import CRAActor, CRACritic
+
+
+class _ContrastLossHook:
+    """Stands in rsl-rl's ``PPO.symmetry`` slot: no augmentation, its "mirror loss" is our InfoNCE."""
+
+    use_data_augmentation = False
+    use_mirror_loss = True
+
+    def __init__(self, alg: CRAPPO) -> None:
+        self.alg = alg
+        self.mirror_loss_coeff = alg.contrast_cfg.weight
+        self.reset()
+
+    def reset(self) -> None:
+        self.calls, self.loss, self.acc, self.chance = 0, 0.0, 0.0, 0.0
+
+    def augment_batch(self, batch, original_batch_size: int) -> None:
+        pass
+
+    def compute_loss(self, actor, batch, original_batch_size: int) -> torch.Tensor:
+        loss, acc, k = self.alg.contrastive_loss(batch.masks)
+        self.calls += 1
+        self.loss += loss.item()
+        self.acc += acc.item()
+        self.chance += 1.0 / k
+        return loss
+
+
+class CRAPPO(PPO):
+    """rsl-rl PPO + ``contrast_cfg.weight`` * InfoNCE(MLP_S(m_a), MLP_T([sg(u_t), s_t])).
+
+    ``update()`` returns rsl-rl's keys plus, unless the variant is "none": ``infonce`` (mean loss),
+    ``infonce_acc`` (top-1 accuracy of the positive) and ``infonce_chance`` (1 / samples per term) -> the runner
+    logs them as Loss/<key>.
+    """
+
+    def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None, **kwargs) -> None:
+        super().__init__(actor, critic, storage, **kwargs)
+        cfg = contrast_cfg if isinstance(contrast_cfg, ContrastConfig) else ContrastConfig(**(contrast_cfg or {}))
+        self.contrast_cfg = cfg
+        self.heads: ContrastiveHeads | None = None
+        if cfg.variant == "none":
+            return
+        if not isinstance(actor, CRAActor) or not isinstance(critic, CRACritic):
+            raise TypeError(f"the contrastive variant {cfg.variant!r} needs CRAActor and CRACritic models, "
+                            f"got {type(actor).__name__} and {type(critic).__name__}")
+        if self.symmetry is not None:
+            raise ValueError("the contrastive loss uses rsl-rl's symmetry slot; symmetry_cfg must be None")
+        self.heads = ContrastiveHeads(actor.latent_dim, critic.cnn_latent_dim, critic.obs_dim, cfg.embed_dim,
+                                      cfg.hidden_dims, cfg.activation).to(self.device)
+        self.optimizer.add_param_group({"params": list(self.heads.parameters()), "lr": self.learning_rate})
+        self.symmetry = _ContrastLossHook(self)
+
+    def contrastive_loss(self, masks: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor, int]:
+        """InfoNCE on the features of the last actor and critic forward; (loss, top-1 accuracy, samples K)."""
+        m_a, u, s = self._raw_actor.latent, self._raw_critic.u_t, self._raw_critic.s_t  # [T, B, ..] in update
+        episodes = episode_ids(masks) if masks is not None else None                    # [T, B]
+        m_a, u, s = contrast_pairs(self.contrast_cfg.variant, m_a, u, s, episodes)     # [K, ..]
+        m_a, u, s = subsample(self.contrast_cfg.max_samples, m_a, u, s)
+        if m_a.shape[0] < 2:
+            raise ValueError(f"the contrast needs at least 2 samples per mini-batch, got {m_a.shape[0]}")
+        i_s, i_t = self.heads(m_a, u, s)                                                # [K, 256] each
+        loss, acc = info_nce(i_s, i_t, self.contrast_cfg.tau, self.contrast_cfg.normalize)
+        return loss, acc, m_a.shape[0]
+
+    def update(self) -> dict[str, float]:
+        if self.heads is None:
+            return super().update()
+        hook: _ContrastLossHook = self.symmetry  # type: ignore[assignment]
+        hook.reset()
+        loss_dict = super().update()
+        loss_dict.pop("symmetry", None)  # the slot's own log entry is our InfoNCE, logged below under its name
+        n = self.num_learning_epochs * self.num_mini_batches
+        if hook.calls != n:
+            raise RuntimeError(f"rsl-rl's PPO.update() called the contrastive loss {hook.calls} times for {n} "
+                               "mini-batches: CRAPPO relies on rsl-rl 5.5.1's update loop "
+                               "(see cra_warp/learning/ppo.py)")
+        loss_dict.update(infonce=hook.loss / n, infonce_acc=hook.acc / n, infonce_chance=hook.chance / n)
+        return loss_dict
+
+    # ---------------------------------------------------------------- the heads follow the models everywhere
+    def train_mode(self) -> None:
+        super().train_mode()
+        if self.heads is not None:
+            self.heads.train()
+
+    def eval_mode(self) -> None:
+        super().eval_mode()
+        if self.heads is not None:
+            self.heads.eval()
+
+    def save(self) -> dict:
+        saved = super().save()
+        if self.heads is not None:
+            saved["contrast_state_dict"] = self.heads.state_dict()
+        return saved
+
+    def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
+        load_iteration = super().load(loaded_dict, load_cfg, strict)
+        if self.heads is not None and (load_cfg is None or load_cfg.get("contrast", load_cfg.get("optimizer"))):
+            if "contrast_state_dict" in loaded_dict:
+                self.heads.load_state_dict(loaded_dict["contrast_state_dict"], strict=strict)
+            elif strict:
+                raise KeyError("the checkpoint has no contrastive heads (trained with contrast variant 'none'?)")
+        return load_iteration
+
+    def broadcast_parameters(self) -> None:
+        super().broadcast_parameters()
+        if self.heads is not None:
+            for tensor in self.heads.state_dict().values():
+                torch.distributed.broadcast(tensor, src=0)
+
+    def reduce_parameters(self) -> None:
+        if self.heads is None:
+            return super().reduce_parameters()
+        params = chain(self.actor.parameters(), self.critic.parameters(), self.heads.parameters())
+        if self.rnd:
+            params = chain(params, self.rnd.parameters())
+        reduce_gradients_in_buckets(params, self.gpu_world_size, self.grad_reduce_bucket_mb)
