@@ -66,8 +66,9 @@ class LocoEnv(VecEnv):
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
         self.kp = self.world.joint_kp  # [N, J] view: current (randomised) gains
-        # actuator torques of the last physics substep, [N, J] view of MuJoCo Warp's data
-        self.torques = wp.to_torch(self.world.solver.mjw_data.actuator_force).view(N, J)
+        # Joint torques of the last physics substep, [N, J] view of MuJoCo Warp's data: qfrc_actuator is the PD
+        # output after the joint's effort clamp (actuator_force is the unclamped request).
+        self.torques = wp.to_torch(self.world.solver.mjw_data.qfrc_actuator).view(N, -1)[:, -J:]
 
         # buffers
         z = lambda *s: torch.zeros(*s, **d)  # noqa: E731

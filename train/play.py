@@ -20,8 +20,8 @@ from train.train import VARIANTS, UsageError, check_device
 class PlayArgs:
     checkpoint: Path | None = None     # a cra-train checkpoint (model_<it>.pt); needed for --agent policy
     agent: str = "policy"              # policy | zero | random
-    task: str = "flat"                 # flat | rough
-    variant: str = "ours"              # the variant the checkpoint was trained with
+    task: str | None = None            # flat | rough; default: the checkpoint's task (flat for zero/random)
+    variant: str = "ours"              # zero/random agents only: a policy brings its own
     num_envs: int = 16
     steps: int = 500                   # env steps (0.02 s each)
     device: str = "cpu"
@@ -36,9 +36,7 @@ def make_agent(a: PlayArgs, env):
         return lambda obs: torch.zeros(env.num_envs, env.num_actions, device=env.device)
     if a.agent == "random":
         return lambda obs: 0.3 * torch.randn(env.num_envs, env.num_actions, device=env.device)
-    from cra_warp.learning.checkpoint import load_policy
-
-    return load_policy(a.checkpoint, env, device=a.device)
+    raise AssertionError("policies are loaded with their env in run()")
 
 
 def run(a: PlayArgs) -> dict:
@@ -47,9 +45,22 @@ def run(a: PlayArgs) -> dict:
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
-    env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0], terrain=a.task,
-                             seed=a.seed))
-    agent = make_agent(a, env)
+    if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
+        from train.runner import runner_for_checkpoint
+
+        overrides = {"terrain": a.task} if a.task else {}
+        runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, seed=a.seed,
+                                            **overrides)
+        policy = runner.get_inference_policy(a.device)
+
+        def agent(obs):
+            return policy(obs)  # deterministic (mean) actions; the GRU state is kept inside the model
+
+        agent.reset = policy.reset
+    else:
+        env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0],
+                                 terrain=a.task or "flat", seed=a.seed))
+        agent = make_agent(a, env)
     viewer = None
     if a.usd is not None:
         import newton.viewer
@@ -63,6 +74,8 @@ def run(a: PlayArgs) -> dict:
             prev_xy = env.root_pos[:, :2].clone()
             cmd = env.commands.clone()
             obs, _, dones, extras = env.step(agent(obs))
+            if hasattr(agent, "reset"):
+                agent.reset(dones)  # a reset robot starts with a fresh recurrent state
             sq_err += ((cmd[:, :2] - env.base_lin_vel[:, :2]) ** 2).sum(-1)
             moved = (env.root_pos[:, :2] - prev_xy).norm(dim=-1)
             dist += torch.where(dones.bool(), 0.0, moved)  # a reset teleports the robot: not walked

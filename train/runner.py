@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import datetime
 import io
 import os
@@ -21,8 +22,10 @@ from rsl_rl.runners import OnPolicyRunner
 
 
 class CraRunner(OnPolicyRunner):
-    def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", quiet: bool = False):
+    def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", quiet: bool = False,
+                 run_info: dict | None = None):
         self._quiet = quiet
+        self.run_info = run_info or {}  # stored in every checkpoint: what play/export need to rebuild the env
         self._t0 = time.time()
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         log = self.logger.log
@@ -45,14 +48,14 @@ class CraRunner(OnPolicyRunner):
         if len(lg.rewbuffer):
             parts += [f"reward {statistics.mean(lg.rewbuffer):7.2f}",
                       f"ep len {statistics.mean(lg.lenbuffer) * self.env.dt:5.1f}s"]
-        if "infonce_top1" in loss_dict:
-            parts.append(f"InfoNCE top-1 {loss_dict['infonce_top1']:.2f} (chance {loss_dict['infonce_chance']:.3f})")
+        if "infonce_acc" in loss_dict:
+            parts.append(f"InfoNCE top-1 {loss_dict['infonce_acc']:.2f} (chance {loss_dict['infonce_chance']:.4f})")
         parts.append(f"ETA {datetime.timedelta(seconds=int(eta))}")
         print(" | ".join(parts), flush=True)
 
     def save(self, path: str, infos: dict | None = None) -> None:
         tmp = f"{path}.tmp"
-        super().save(tmp, infos)
+        super().save(tmp, {**self.run_info, **(infos or {})})
         os.replace(tmp, path)
 
     def _configure_multi_gpu(self) -> None:
@@ -67,3 +70,28 @@ class CraRunner(OnPolicyRunner):
                                  "world_size": world_size}
         if not torch.distributed.is_initialized():
             torch.distributed.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world_size)
+
+
+def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_overrides):
+    """Rebuild the env and runner a checkpoint was trained with (from the run info it stores) and load it.
+
+    Returns (runner, env). Raises ValueError with one line for a missing, foreign or mismatched checkpoint.
+    """
+    from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
+    from cra_warp.learning.config import LearnerConfig, runner_cfg
+    from envs.loco_config import LocoConfig
+    from envs.locomotion import LocoEnv
+    from train.train import VARIANTS
+
+    info = read_checkpoint(path).get("infos") or {}
+    variant, task = info.get("variant", "ours"), info.get("task", "flat")
+    if variant not in VARIANTS:
+        raise ValueError(f"{path}: unknown variant {variant!r} in the checkpoint")
+    env_variant, contrast = VARIANTS[variant]
+    env = LocoEnv(LocoConfig(num_envs=num_envs, device=device, variant=env_variant,
+                             terrain=env_overrides.pop("terrain", task), **env_overrides))
+    learner = LearnerConfig()
+    learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
+    runner = CraRunner(env, runner_cfg(learner), log_dir=None, device=device, quiet=True, run_info=info)
+    load_checkpoint(path, runner)
+    return runner, env

@@ -44,10 +44,8 @@ def _shape_problem(name: str, model: torch.nn.Module, saved: dict) -> str | None
     return f"{name} parameter '{k}' has shape {s} in the checkpoint but {m} in this model"
 
 
-def load_checkpoint(path: str | Path, runner, load_cfg: dict | None = None, strict: bool = True,
-                    map_location: str | None = "cpu"):
-    """``runner.load(path, ...)`` with checks; returns the checkpoint's ``infos``. Raises :class:`CheckpointError`
-    (a ValueError, one line) for a missing, unreadable, foreign or mismatched file."""
+def read_checkpoint(path: str | Path, map_location: str | None = "cpu") -> dict:
+    """The saved dict of an rsl-rl checkpoint; :class:`CheckpointError` (one line) if it is missing or foreign."""
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"{path}: no such checkpoint file")
@@ -57,6 +55,15 @@ def load_checkpoint(path: str | Path, runner, load_cfg: dict | None = None, stri
         raise CheckpointError(f"{path}: not a readable torch checkpoint ({_one_line(e)})") from e
     if not isinstance(saved, dict) or "actor_state_dict" not in saved:
         raise CheckpointError(f"{path}: not an rsl-rl checkpoint (no 'actor_state_dict')")
+    return saved
+
+
+def load_checkpoint(path: str | Path, runner, load_cfg: dict | None = None, strict: bool = True,
+                    map_location: str | None = "cpu"):
+    """``runner.load(path, ...)`` with checks; returns the checkpoint's ``infos``. Raises :class:`CheckpointError`
+    (a ValueError, one line) for a missing, unreadable, foreign or mismatched file."""
+    path = Path(path)
+    saved = read_checkpoint(path, map_location)
     alg = runner.alg
     want = load_cfg or {"actor": True, "critic": True}
     checks = [("actor", alg._raw_actor, "actor_state_dict")] if want.get("actor") else []

@@ -1,0 +1,131 @@
+"""cra-train: train the CRA-Loco policy on any Warp device.
+
+    cra-train                                   # the default: a ~10 min CPU run on flat ground (64 envs)
+    cra-train --num-envs 4096 --device cuda:0 --task rough --max-iterations 10000
+    cra-train --resume runs/<run>/model_40.pt --max-iterations 40   # continues at iteration 41
+    torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
+
+Variants (paper IV-A): ours (same-step contrast, adaptive clock), sequential (contrast with the next step),
+no_contrast, fixed_cycle, clock_free. Writes TensorBoard logs, checkpoints and, at the end, the exported policy
+(TorchScript, ONNX, deploy JSON) to the run directory.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import random
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+TASKS = ("flat", "rough")
+VARIANTS = {  # variant -> (env variant, contrast variant)
+    "ours": ("adaptive", "same_step"),
+    "sequential": ("adaptive", "sequential"),
+    "no_contrast": ("adaptive", "none"),
+    "fixed_cycle": ("fixed_cycle", "same_step"),
+    "clock_free": ("clock_free", "same_step"),
+}
+
+
+@dataclass
+class TrainArgs:
+    task: str = "flat"                 # flat | rough (terrain curriculum)
+    variant: str = "ours"              # ours | sequential | no_contrast | fixed_cycle | clock_free
+    num_envs: int = 64                 # parallel robots (per process with torchrun)
+    device: str = "cpu"                # cpu | cuda:N
+    max_iterations: int = 40           # learning iterations (24 env steps per env each)
+    seed: int = 1
+    resume: Path | None = None         # checkpoint to continue from (iteration count and optimizer state)
+    log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
+    save_interval: int = 10            # iterations between checkpoints
+    export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
+    quiet: bool = False                # no progress lines
+
+
+class UsageError(Exception):
+    """A bad argument or input file: reported as one line, exit code 2."""
+
+
+def validate(a: TrainArgs) -> None:
+    if a.task not in TASKS:
+        raise UsageError(f"--task must be one of {', '.join(TASKS)}, got {a.task!r}")
+    if a.variant not in VARIANTS:
+        raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
+    if a.num_envs < 1:
+        raise UsageError(f"--num-envs must be >= 1, got {a.num_envs}")
+    if a.max_iterations < 1:
+        raise UsageError(f"--max-iterations must be >= 1, got {a.max_iterations}")
+    if a.save_interval < 1:
+        raise UsageError(f"--save-interval must be >= 1, got {a.save_interval}")
+    if a.resume is not None and not a.resume.is_file():
+        raise UsageError(f"--resume {a.resume}: no such file")
+    check_device(a.device)
+
+
+def check_device(device: str) -> None:
+    import warp as wp
+
+    if device != "cpu" and not (device.startswith("cuda:") and device[5:].isdigit()):
+        raise UsageError(f"--device must be cpu or cuda:N, got {device!r}")
+    if device != "cpu" and device not in [str(d) for d in wp.get_cuda_devices()]:
+        raise UsageError(f"--device {device}: no such CUDA device on this machine")
+
+
+def seed_everything(seed: int) -> None:
+    import numpy as np
+    import torch
+
+    random.seed(seed)
+    np.random.seed(seed)
+    torch.manual_seed(seed)
+
+
+def run(a: TrainArgs) -> Path:
+    import torch
+
+    from cra_warp.learning.checkpoint import load_checkpoint
+    from cra_warp.learning.config import LearnerConfig, runner_cfg
+    from envs.loco_config import LocoConfig
+    from envs.locomotion import LocoEnv
+    from train.export import export_run
+    from train.runner import CraRunner
+
+    rank = int(os.getenv("RANK", "0"))
+    seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
+    env_variant, contrast = VARIANTS[a.variant]
+    env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
+                             seed=a.seed + rank))
+    learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
+    learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
+    run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
+    runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
+                       quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed})
+    if a.resume is not None:
+        load_checkpoint(runner, a.resume)
+        runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
+    torch.set_num_threads(max(1, (os.cpu_count() or 1) // int(os.getenv("WORLD_SIZE", "1"))))
+    runner.learn(a.max_iterations)
+    if rank == 0 and a.export:
+        export_run(runner, env, run_dir / "exported")
+    return run_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    import tyro
+
+    args = tyro.cli(TrainArgs, args=argv, description=__doc__.split("\n\n")[0])
+    try:
+        validate(args)
+        run_dir = run(args)
+    except (UsageError, ValueError) as e:
+        print(f"cra-train: {e}", file=sys.stderr)
+        return 2
+    print(f"run directory: {run_dir}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
