@@ -1,0 +1,50 @@
+"""Terrain curriculum: each env lives on one tile (level, column) and moves up or down a level at its resets.
+
+Rules (batched torch on ``device``, no loop over envs):
+- promote when the robot ended its episode more than half a tile from its origin;
+- demote when it covered less than half of its commanded distance (|cmd_xy| * episode time * 0.5);
+- robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
+Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from cra_warp.terrain import Terrain
+
+
+class TerrainCurriculum:
+    """Levels [N], columns [N] and spawn origins [N, 3] of ``num_envs`` envs on ``terrain``."""
+
+    def __init__(self, terrain: Terrain, num_envs: int, device: str | torch.device = "cpu", max_init_level: int = 0,
+                 seed: int = 0):
+        if not 0 <= max_init_level < terrain.num_levels:
+            raise ValueError(f"max_init_level must be in [0, {terrain.num_levels - 1}], got {max_init_level}")
+        self.device = torch.device(device)
+        self.num_levels, self.num_cols = terrain.num_levels, terrain.num_cols
+        self.promote_distance = terrain.cfg.tile_size / 2
+        self.tile_origins = torch.as_tensor(terrain.origins, dtype=torch.float32, device=self.device)  # [L, C, 3]
+        self._gen = torch.Generator(device=self.device).manual_seed(seed)
+        self.levels = torch.randint(0, max_init_level + 1, (num_envs,), generator=self._gen, device=self.device)
+        self.cols = torch.arange(num_envs, device=self.device) % self.num_cols
+        self.origins = self.tile_origins[self.levels, self.cols]                                      # [N, 3]
+
+    def update(self, env_ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor) -> None:
+        """Move envs ``env_ids`` [n] up/down a level after their episodes.
+
+        walked [n]: distance (xy, m) from the origin at episode end; commanded [n]: |cmd_xy| * episode time (m).
+        """
+        lv = self.levels[env_ids]
+        up = walked > self.promote_distance
+        down = (walked < 0.5 * commanded) & ~up
+        lv = lv + up.long() - down.long()
+        wrap = lv >= self.num_levels
+        lv = torch.where(wrap, torch.randint(0, self.num_levels, lv.shape, generator=self._gen, device=self.device),
+                         lv.clamp_min(0))
+        self.levels[env_ids] = lv
+        self.origins[env_ids] = self.tile_origins[lv, self.cols[env_ids]]
+
+    def mean_level(self) -> torch.Tensor:
+        """Mean level over all envs (a 0-d tensor, for logging)."""
+        return self.levels.float().mean()
