@@ -8,7 +8,9 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   policies whose per-frame observation has the same order as the paper's (filter time constant below).
 - Observation scales are the vendor's (angular velocity 0.25, joint velocity 0.05, command (2, 2, 0.25)); uniform
   noise as in legged_gym, on the actor's observation only (the critic sees it without noise).
-- Total reward r = sum_i w_i r_i per env step, no dt scaling (the paper's formula).
+- Total reward r = sum_i w_i r_i per env step, no dt scaling (the paper's formula), clipped at 0 from below
+  (``only_positive_rewards``, as legged_gym and the vendor's Adam Lite config do): with Table I's penalties a
+  young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
 - Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
 - Physical randomisation (mass, CoM, motor strength, friction) is sampled per env when the env is built and on
@@ -72,6 +74,7 @@ class RewardConfig:
     soft_limit: float = 0.9                          # joint position/velocity/torque limits at 90% of the range
     contact_threshold: float = 5.0                   # [N] a foot with more vertical force is in contact
     power_floor: float = 0.1                         # keeps the joint-power ratio finite for a standing robot
+    only_positive_rewards: bool = True               # clip the summed reward at 0 (see the module docstring)
 
 
 # Table I of the paper, in its order.
@@ -118,7 +121,8 @@ class DomainRandConfig:
     friction: tuple[float, float] = (0.4, 1.25)
     push_interval: float = 8.0                            # [s]
     push_max_vel: float = 0.8                             # [m/s] horizontal speed change of a push, 0..max
-    force_interval: float = 4.0                           # [s] external force on the base, resampled
+    force_interval: float = 4.0                           # [s] between external forces on the base
+    force_duration: float = 0.5                           # [s] each force acts this long (a shove, not a wind)
     force_max: float = 50.0                               # [N] per axis, +-
 
 

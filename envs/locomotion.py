@@ -196,6 +196,8 @@ class LocoEnv(VecEnv):
             r = weight * torch.nan_to_num(TERMS[name](self), nan=0.0, posinf=0.0, neginf=0.0)
             terms[name] = r
             total += r
+        if self.cfg.rewards.only_positive_rewards:
+            total = total.clamp(min=0.0)
         return total, terms
 
     # ------------------------------------------------------------------ observations
@@ -269,7 +271,7 @@ class LocoEnv(VecEnv):
         self.episode_length_buf[ids] = 0
         rd = self.cfg.randomization
         self.push_timer[ids] = rd.push_interval * torch.rand(n, device=self.device, generator=self.gen)
-        self.force_timer[ids] = 0.0
+        self.force_timer[ids] = rd.force_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.clock.reset(ids)
         for s in self.episode_sums.values():
             s[ids] = 0.0
@@ -316,6 +318,8 @@ class LocoEnv(VecEnv):
         if len(fid):
             self.world.base_force[fid, :3] = self._uniform(-rd.force_max, rd.force_max, len(fid), 3)
             self.force_timer[fid] = rd.force_interval
+        over = self.force_timer < rd.force_interval - rd.force_duration
+        self.world.base_force[:, :3] *= ~over.unsqueeze(-1)
 
     def randomize_physics(self, ids: torch.Tensor):
         """Sample mass, base CoM, motor strength and friction for ``ids`` and hand them to the solver."""

@@ -14,6 +14,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from tyro.conf import Positional
+
 from train.train import UsageError
 
 
@@ -46,12 +48,14 @@ def export_run(runner, env, out_dir: Path) -> dict:
 
 @dataclass
 class ExportArgs:
-    checkpoint: Path                   # a cra-train checkpoint (model_<it>.pt)
+    checkpoint: Positional[Path]       # a cra-train checkpoint (model_<it>.pt)
     out: Path | None = None            # default: <checkpoint dir>/exported
 
 
 def main(argv: list[str] | None = None) -> int:
     import tyro
+
+    from cra_warp.learning.checkpoint import CheckpointError
 
     from train.runner import runner_for_checkpoint
 
@@ -59,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         runner, env = runner_for_checkpoint(a.checkpoint)
         paths = export_run(runner, env, a.out or a.checkpoint.parent / "exported")
-    except (UsageError, ValueError) as e:  # CheckpointError is a ValueError with a one-line message
+    except (UsageError, CheckpointError) as e:
         print(f"cra-export: {e}", file=sys.stderr)
         return 2
     for kind, path in paths.items():

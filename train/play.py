@@ -13,12 +13,14 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from tyro.conf import Positional
+
 from train.train import VARIANTS, UsageError, check_device
 
 
 @dataclass
 class PlayArgs:
-    checkpoint: Path | None = None     # a cra-train checkpoint (model_<it>.pt); needed for --agent policy
+    checkpoint: Positional[Path | None] = None  # a cra-train checkpoint (model_<it>.pt); for --agent policy
     agent: str = "policy"              # policy | zero | random
     task: str | None = None            # flat | rough; default: the checkpoint's task (flat for zero/random)
     variant: str = "ours"              # zero/random agents only: a policy brings its own
@@ -95,6 +97,8 @@ def run(a: PlayArgs) -> dict:
 def main(argv: list[str] | None = None) -> int:
     import tyro
 
+    from cra_warp.learning.checkpoint import CheckpointError
+
     a = tyro.cli(PlayArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
         if a.agent not in ("policy", "zero", "random"):
@@ -107,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--num-envs and --steps must be >= 1, got {a.num_envs}, {a.steps}")
         check_device(a.device)
         report = run(a)
-    except UsageError as e:
+    except (UsageError, CheckpointError) as e:
         print(f"cra-play: {e}", file=sys.stderr)
         return 2
     for k, v in report.items():

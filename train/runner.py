@@ -26,6 +26,7 @@ class CraRunner(OnPolicyRunner):
                  run_info: dict | None = None):
         self._quiet = quiet
         self.run_info = run_info or {}  # stored in every checkpoint: what play/export need to rebuild the env
+        self.history: list[dict] = []   # one record per iteration: what the progress line shows
         self._t0 = time.time()
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         log = self.logger.log
@@ -33,23 +34,31 @@ class CraRunner(OnPolicyRunner):
         def compact_log(**kw):
             with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl's console block; TensorBoard still written
                 log(**kw)
+            self._record(**kw)
             if not self._quiet and self.gpu_global_rank == 0:
-                self._progress(**kw)
+                self._progress(self.history[-1], kw["start_it"], kw["total_it"])
 
         self.logger.log = compact_log
 
-    def _progress(self, it, start_it, total_it, collect_time, learn_time, loss_dict, **_):
+    def _record(self, it, collect_time, learn_time, loss_dict, **_):
         lg = self.logger
         steps = self.cfg["num_steps_per_env"] * self.env.num_envs * self.gpu_world_size
-        done = it + 1 - start_it
-        eta = (time.time() - self._t0) / done * (total_it - start_it - done)
-        parts = [f"it {it + 1}/{total_it}", f"{steps / (collect_time + learn_time):6.0f} env-steps/s",
-                 f"collect {collect_time:.1f}s update {learn_time:.1f}s"]
+        rec = {"it": it, "env_steps_per_s": steps / (collect_time + learn_time), "collect_s": collect_time,
+               "update_s": learn_time}
         if len(lg.rewbuffer):
-            parts += [f"reward {statistics.mean(lg.rewbuffer):7.2f}",
-                      f"ep len {statistics.mean(lg.lenbuffer) * self.env.dt:5.1f}s"]
-        if "infonce_acc" in loss_dict:
-            parts.append(f"InfoNCE top-1 {loss_dict['infonce_acc']:.2f} (chance {loss_dict['infonce_chance']:.4f})")
+            rec.update(reward=statistics.mean(lg.rewbuffer), episode_s=statistics.mean(lg.lenbuffer) * self.env.dt)
+        rec.update({k: loss_dict[k] for k in ("infonce_acc", "infonce_chance") if k in loss_dict})
+        self.history.append(rec)
+
+    def _progress(self, r: dict, start_it: int, total_it: int):
+        done = r["it"] + 1 - start_it
+        eta = (time.time() - self._t0) / done * (total_it - start_it - done)
+        parts = [f"it {r['it'] + 1}/{total_it}", f"{r['env_steps_per_s']:6.0f} env-steps/s",
+                 f"collect {r['collect_s']:.1f}s update {r['update_s']:.1f}s"]
+        if "reward" in r:
+            parts += [f"reward {r['reward']:7.2f}", f"ep len {r['episode_s']:5.1f}s"]
+        if "infonce_acc" in r:
+            parts.append(f"InfoNCE top-1 {r['infonce_acc']:.2f} (chance {r['infonce_chance']:.4f})")
         parts.append(f"ETA {datetime.timedelta(seconds=int(eta))}")
         print(" | ".join(parts), flush=True)
 
@@ -75,9 +84,9 @@ class CraRunner(OnPolicyRunner):
 def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_overrides):
     """Rebuild the env and runner a checkpoint was trained with (from the run info it stores) and load it.
 
-    Returns (runner, env). Raises ValueError with one line for a missing, foreign or mismatched checkpoint.
+    Returns (runner, env). Raises CheckpointError (one line) for a missing, foreign or mismatched checkpoint.
     """
-    from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
+    from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
@@ -86,7 +95,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_ov
     info = read_checkpoint(path).get("infos") or {}
     variant, task = info.get("variant", "ours"), info.get("task", "flat")
     if variant not in VARIANTS:
-        raise ValueError(f"{path}: unknown variant {variant!r} in the checkpoint")
+        raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
     env_variant, contrast = VARIANTS[variant]
     env = LocoEnv(LocoConfig(num_envs=num_envs, device=device, variant=env_variant,
                              terrain=env_overrides.pop("terrain", task), **env_overrides))

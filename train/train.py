@@ -83,7 +83,8 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(seed)
 
 
-def run(a: TrainArgs) -> Path:
+def run(a: TrainArgs):
+    """Train as the arguments say; returns (run directory, runner)."""
     import torch
 
     from cra_warp.learning.checkpoint import load_checkpoint
@@ -104,23 +105,25 @@ def run(a: TrainArgs) -> Path:
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
                        quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed})
     if a.resume is not None:
-        load_checkpoint(runner, a.resume)
+        load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     torch.set_num_threads(max(1, (os.cpu_count() or 1) // int(os.getenv("WORLD_SIZE", "1"))))
     runner.learn(a.max_iterations)
     if rank == 0 and a.export:
         export_run(runner, env, run_dir / "exported")
-    return run_dir
+    return run_dir, runner
 
 
 def main(argv: list[str] | None = None) -> int:
     import tyro
 
+    from cra_warp.learning.checkpoint import CheckpointError
+
     args = tyro.cli(TrainArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
         validate(args)
-        run_dir = run(args)
-    except (UsageError, ValueError) as e:
+        run_dir, _ = run(args)
+    except (UsageError, CheckpointError) as e:
         print(f"cra-train: {e}", file=sys.stderr)
         return 2
     print(f"run directory: {run_dir}")

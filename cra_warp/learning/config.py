@@ -34,7 +34,7 @@ class ActorConfig:
     hidden_dims: tuple[int, ...] = (128, 64)     # "a small MLP" (paper); 256 -> 128 -> 64 -> A
     activation: str = "elu"
     obs_normalization: bool = True               # running mean/std; copied into the exported graph
-    init_std: float = 1.0                        # Gaussian std at start (rsl-rl default), in action units
+    init_std: float = 0.3                        # Gaussian std at start, in action units (see below)
     std_type: str = "scalar"                     # "scalar" or "log" parameterisation of the state-free std
 
 

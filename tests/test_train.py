@@ -1,0 +1,93 @@
+"""The user-facing commands: cra-train (bad input, checkpoints, resume, export), cra-export, cra-play."""
+
+import json
+
+import pytest
+import torch
+
+from train import export as export_cli
+from train import play as play_cli
+from train import train as train_cli
+
+
+def one_line_error(capsys, code: int, *words: str):
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+
+
+@pytest.mark.parametrize("args, word", [
+    (["--num-envs", "-3"], "--num-envs"),
+    (["--device", "tpu"], "--device"),
+    (["--device", "cuda:0"], "no such CUDA device"),
+    (["--variant", "magic"], "--variant"),
+    (["--task", "moon"], "--task"),
+    (["--resume", "/nonexistent/model_3.pt"], "no such file"),
+])
+def test_train_rejects_bad_values(capsys, args, word):
+    one_line_error(capsys, train_cli.main(args), word)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A 2-iteration run with checkpoints every iteration, then a 1-iteration resume of it."""
+    logs = tmp_path_factory.mktemp("runs")
+    common = ["--num-envs", "4", "--save-interval", "1", "--log-dir", str(logs), "--quiet"]
+    assert train_cli.main(["--max-iterations", "2", *common]) == 0
+    first = next(logs.iterdir())
+    assert train_cli.main(["--max-iterations", "1", "--resume", str(first / "model_1.pt"), "--no-export",
+                           *common]) == 0
+    second = next(d for d in logs.iterdir() if d != first)
+    return first, second
+
+
+def test_checkpoints_are_complete_and_atomic(trained):
+    first, _ = trained
+    names = sorted(p.name for p in first.glob("model_*.pt"))
+    assert names == ["model_0.pt", "model_1.pt"]
+    assert not list(first.rglob("*.tmp"))
+    saved = torch.load(first / "model_1.pt", weights_only=False)
+    assert saved["iter"] == 1 and saved["infos"]["variant"] == "ours" and saved["infos"]["task"] == "flat"
+
+
+def test_resume_continues_iterations_and_optimizer(trained):
+    first, second = trained
+    assert [p.name for p in second.glob("model_*.pt")] == ["model_2.pt"]
+    before = torch.load(first / "model_1.pt", weights_only=False)
+    after = torch.load(second / "model_2.pt", weights_only=False)
+    assert after["iter"] == 2
+
+    def adam_steps(ckpt):
+        return max(float(s["step"]) for s in ckpt["optimizer_state_dict"]["state"].values())
+
+    assert adam_steps(after) > adam_steps(before)  # Adam's moments came along, not a fresh optimizer
+
+
+def test_export_at_the_end_of_training(trained):
+    first, _ = trained
+    meta = json.loads((first / "exported" / "policy.json").read_text())
+    assert (first / "exported" / "policy.pt").is_file() and (first / "exported" / "policy.onnx").is_file()
+    assert len(meta["joint_names"]) == 23 and meta["control_dt"] == pytest.approx(0.02)
+    assert meta["gait"]["psi"] == 0.5 and meta["action_scale"] == 0.5
+
+
+def test_export_cli(trained, tmp_path, capsys):
+    first, _ = trained
+    assert export_cli.main([str(first / "model_1.pt"), "--out", str(tmp_path / "dep")]) == 0
+    assert (tmp_path / "dep" / "policy.onnx").is_file()
+    bad = tmp_path / "model_9.pt"
+    bad.write_bytes(b"not a checkpoint")
+    one_line_error(capsys, export_cli.main([str(bad)]), str(bad))
+
+
+def test_play_a_trained_policy(trained, capsys):
+    first, _ = trained
+    assert play_cli.main([str(first / "model_1.pt"), "--num-envs", "2", "--steps", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "vel_tracking_rmse" in out and "falls_per_robot_minute" in out
+
+
+def test_play_rejects_missing_checkpoint(capsys):
+    one_line_error(capsys, play_cli.main(["--agent", "policy"]), "checkpoint")
