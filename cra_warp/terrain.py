@@ -43,7 +43,7 @@ class TerrainConfig:
     slope_deg: tuple[float, float] = (2.0, 34.0)       # pyramid slope angle at level 0 .. top level
     uneven_cell: float = 0.5                 # [m] cell of the random-height grid (one collision box per cell)
     uneven_height: tuple[float, float] = (0.02, 0.08)  # [m] max random cell height at level 0 .. top level
-    uneven_density: float = 0.35             # fraction of grid squares raised (each raised square costs a box)
+    uneven_density: float = 0.2              # fraction of grid squares raised (each raised square costs a box)
     uneven_quantum: float = 0.01             # [m] random heights are multiples of this (equal cells merge into boxes)
     obstacles: int = 4                       # discrete obstacles per uneven tile
     obstacle_height: tuple[float, float] = (0.04, 0.20)  # [m] obstacle height at level 0 .. top level
@@ -61,10 +61,10 @@ class TerrainConfig:
             fail("num_cols", f"must be >= 1, got {self.num_cols}")
         if self.resolution <= 0:
             fail("resolution", f"must be > 0, got {self.resolution}")
-        for name in ("tile_size", "border"):
-            v = getattr(self, name)
-            if v < 0 or (name == "tile_size" and v == 0) or not _is_multiple(v, self.resolution):
-                fail(name, f"must be a positive multiple of resolution {self.resolution}, got {v}")
+        if self.tile_size <= 0 or not _is_multiple(self.tile_size, self.resolution):
+            fail("tile_size", f"must be a positive multiple of resolution {self.resolution}, got {self.tile_size}")
+        if self.border < 0 or not _is_multiple(self.border, self.resolution):
+            fail("border", f"must be a multiple of resolution {self.resolution} (>= 0), got {self.border}")
         for name in ("tile_margin", "platform_size", "tread", "uneven_cell", "spawn_pad", "field_offset",
                      "uneven_quantum"):
             v = getattr(self, name)

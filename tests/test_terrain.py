@@ -228,7 +228,7 @@ def test_heading_ignores_pitch_and_roll():
 
 
 def test_bench_height_maps_runs(sampler):
-    r = bench_height_maps(sampler, num_envs=64, repeats=2)
+    r = bench_height_maps(num_envs=64, repeats=2, sampler=sampler)
     assert r["num_envs"] == 64 and r["ms_per_step"] > 0 and r["points"] == 64 * (187 + 50)
 
 
