@@ -1,6 +1,6 @@
 """cra-train: train the CRA-Loco policy on any Warp device.
 
-    cra-train                                   # the default: a ~10 min CPU run on flat ground (64 envs)
+    cra-train                                   # the default: a ~10 min CPU run on flat ground (128 envs)
     cra-train --num-envs 4096 --device cuda:0 --task rough --max-iterations 10000
     cra-train --resume runs/<run>/model_40.pt --max-iterations 40   # continues at iteration 41
     torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
@@ -34,13 +34,13 @@ VARIANTS = {  # variant -> (env variant, contrast variant)
 class TrainArgs:
     task: str = "flat"                 # flat | rough (terrain curriculum)
     variant: str = "ours"              # ours | sequential | no_contrast | fixed_cycle | clock_free
-    num_envs: int = 64                 # parallel robots (per process with torchrun)
+    num_envs: int = 128                # parallel robots (per process with torchrun)
     device: str = "cpu"                # cpu | cuda:N
-    max_iterations: int = 40           # learning iterations (24 env steps per env each)
+    max_iterations: int = 120          # learning iterations (24 env steps per env each): ~10 min on 2 CPU cores
     seed: int = 1
     resume: Path | None = None         # checkpoint to continue from (iteration count and optimizer state)
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
-    save_interval: int = 10            # iterations between checkpoints
+    save_interval: int = 20            # iterations between checkpoints
     export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
     quiet: bool = False                # no progress lines
 

@@ -1,0 +1,26 @@
+"""Learning check on CPU (flat ground, small budget): the policy gets better and the contrast learns something.
+
+Slow (~3-4 min on 2 cores) but part of CI: it is the one test that runs the whole stack as training does.
+"""
+
+import statistics
+
+import pytest
+
+from train.train import TrainArgs, run
+
+
+@pytest.mark.slow
+def test_reward_episode_length_and_infonce_improve(tmp_path):
+    _, runner = run(TrainArgs(num_envs=64, max_iterations=30, seed=3, log_dir=tmp_path, export=False, quiet=True))
+    h = [r for r in runner.history if "reward" in r]
+    first, last = h[0], h[-5:]
+    reward = statistics.mean(r["reward"] for r in last)
+    length = statistics.mean(r["episode_s"] for r in last)
+    acc = statistics.mean(r["infonce_acc"] for r in last)
+    chance = last[-1]["infonce_chance"]
+    print(f"first: reward {first['reward']:.2f}, episode {first['episode_s']:.2f} s; "
+          f"last 5: reward {reward:.2f}, episode {length:.2f} s, InfoNCE top-1 {acc:.2f} (chance {chance:.4f})")
+    assert reward > 1.5 * first["reward"] and reward > first["reward"] + 5.0
+    assert length > 1.1 * first["episode_s"]
+    assert acc > 10 * chance
