@@ -29,6 +29,8 @@ class HeightMapConfig:
     base_spacing: float = 0.1                # [m]
     foot_shape: tuple[int, int] = (5, 5)     # points along the foot's x and y
     foot_spacing: float = 0.05               # [m]
+    compile: bool = False                    # torch.compile the map kernel: ~1.6x faster on this CPU (one fused
+                                             # loop), ~3 s at the first call (~15 s with an empty inductor cache)
 
 
 def grid_offsets(shape: tuple[int, int], spacing: float, device=None) -> torch.Tensor:
@@ -59,6 +61,8 @@ class HeightSampler:
         self._inv_res = 1.0 / field.resolution
         self.base_offsets = grid_offsets(self.maps.base_shape, self.maps.base_spacing, self.device)  # [Pb, 2]
         self.foot_offsets = grid_offsets(self.maps.foot_shape, self.maps.foot_spacing, self.device)  # [Pf, 2]
+        if self.maps.compile:
+            self._local_map = torch.compile(self._local_map, dynamic=False)
 
     def _bilinear(self, fx: torch.Tensor, fy: torch.Tensor) -> torch.Tensor:
         """Heights at continuous sample indices fx (along x), fy (along y), any equal shapes; clamped to the field."""

@@ -227,6 +227,17 @@ def test_heading_ignores_pitch_and_roll():
     assert heading_xy(q).tolist() == pytest.approx([math.cos(yaw), math.sin(yaw)], abs=1e-6)
 
 
+@pytest.mark.slow
+def test_compiled_maps_match_eager(terrain, sampler):
+    from cra_warp.terrain_sampling import HeightMapConfig
+
+    fast = HeightSampler(terrain.field, maps=HeightMapConfig(compile=True))
+    gen = torch.Generator().manual_seed(2)
+    pos = torch.rand(32, 3, generator=gen) * torch.tensor([80.0, 50.0, 1.0]) + 2
+    quat = torch.nn.functional.normalize(torch.randn(32, 4, generator=gen), dim=-1)
+    assert torch.allclose(fast.base_map(pos, quat), sampler.base_map(pos, quat), atol=1e-4)
+
+
 def test_bench_height_maps_runs(sampler):
     r = bench_height_maps(num_envs=64, repeats=2, sampler=sampler)
     assert r["num_envs"] == 64 and r["ms_per_step"] > 0 and r["points"] == 64 * (187 + 50)
