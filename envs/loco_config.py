@@ -22,7 +22,6 @@ Where the paper is silent we take what the legged-locomotion field does; every s
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -159,10 +158,3 @@ class LocoConfig:
     @property
     def uses_clock(self) -> bool:
         return self.variant != "clock_free"
-
-    @property
-    def num_actions(self) -> int:
-        return 23 if self.variant == "clock_free" else 26
-
-
-HEADING_RANGE = (-math.pi, math.pi)

@@ -12,6 +12,7 @@ import math
 
 import torch
 import warp as wp
+from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from cra_warp.gait import GaitClock
@@ -24,11 +25,6 @@ from envs.loco_config import LocoConfig
 from envs.rewards import TERMS
 from robots.adam_lite import ADAM_LITE
 from robots.robot_config import RobotConfig
-
-try:  # rsl-rl's abstract base, when installed (it is a pinned dependency)
-    from rsl_rl.env import VecEnv
-except ImportError:  # pragma: no cover
-    VecEnv = object
 
 GRAVITY = 9.81
 
@@ -176,8 +172,9 @@ class LocoEnv(VecEnv):
         self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
         self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
         rel = self.sole_centres - w.root_pos.unsqueeze(1)
-        heading = torch.stack([torch.zeros_like(self.heading), torch.zeros_like(self.heading),
-                               torch.sin(yaw(q) / 2), torch.cos(yaw(q) / 2)], -1)
+        half_yaw = yaw(q) / 2
+        zero = torch.zeros_like(half_yaw)
+        heading = torch.stack([zero, zero, torch.sin(half_yaw), torch.cos(half_yaw)], -1)
         self.feet_pos_yaw = quat_rotate_inv(heading.unsqueeze(1), rel)
         self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
 
@@ -338,7 +335,7 @@ class LocoEnv(VecEnv):
 
     def _episode_log(self, ids: torch.Tensor) -> dict:
         secs = (self.episode_length_buf[ids].float() * self.dt).clamp(min=self.dt)
-        log = {f"/reward/{k}": (v[ids] / secs).mean() for k, v in self.episode_sums.items() if v is not None}
+        log = {f"/reward/{k}": (v[ids] / secs).mean() for k, v in self.episode_sums.items()}
         log["/episode_length_s"] = secs.mean()
         log["/terrain_level"] = self.ground.mean_level()
         return log

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
-TERRAINS = ("flat", "stairs")
+TERRAINS = ("flat", "stairs", "rough")  # rough: the full training course (897 boxes), robots on its level-0 tiles
 ENGINES = ("newton", "mujoco", "task")  # task: the full locomotion env (Newton + obs, rewards, resets)
 
 
@@ -46,6 +46,16 @@ def stairs():
     return TerrainBoxes(centers, half), float(heights[2])
 
 
+def rough(num_envs: int):
+    """The default training terrain's boxes and, per robot, a level-0 tile origin [N, 3] (round-robin columns)."""
+    from cra_warp.terrain import generate_terrain
+    from cra_warp.terrain_boxes import terrain_boxes
+    from cra_warp.terrain_curriculum import TerrainCurriculum
+
+    terrain = generate_terrain()
+    return terrain_boxes(terrain), TerrainCurriculum(terrain, num_envs).origins
+
+
 def _peak_rss_mb() -> float:
     """Peak RSS of this process since exec. (ru_maxrss would carry the forking parent's high-water mark.)"""
     for line in Path("/proc/self/status").read_text().splitlines():
@@ -55,14 +65,21 @@ def _peak_rss_mb() -> float:
 
 
 def _newton_worker(spec: dict) -> dict:
+    import torch
+
     from cra_warp.world import World, WorldConfig
     from robots.adam_lite import ADAM_LITE
 
-    terrain, ground = stairs() if spec["terrain"] == "stairs" else (None, 0.0)
+    n = spec["num_envs"]
+    if spec["terrain"] == "rough":
+        terrain, origins = rough(n)
+    else:
+        terrain, ground = stairs() if spec["terrain"] == "stairs" else (None, 0.0)
+        origins = torch.tensor([0.0, 0.0, ground]).repeat(n, 1)
     t0 = time.perf_counter()
-    world = World(ADAM_LITE, WorldConfig(num_envs=spec["num_envs"], device=spec["device"]), terrain)
+    world = World(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"]), terrain)
     q = world.default_joint_q.clone()
-    q[:, 2] += ground
+    q[:, :3] += origins.to(q.device)
     world.default_joint_q.copy_(q)
     world.reset()
     world.step()
@@ -113,6 +130,28 @@ def _task_worker(spec: dict) -> dict:
     return {"engine": "task", "num_envs": env.num_envs, "env_steps_per_s": steps * env.num_envs / dt,
             "peak_rss_mb": _peak_rss_mb(), "standing": float("nan"), "start_s": start_s,
             "overhead_vs_sim": (dt - sim_s[0]) / sim_s[0]}
+
+
+def _learner_worker(spec: dict) -> dict:
+    from cra_warp.learning.bench import learner_benchmark
+
+    return {"engine": "learner", **learner_benchmark(spec["num_envs"], threads=spec["threads"])}
+
+
+def _maps_worker(spec: dict) -> dict:
+    import torch
+
+    from cra_warp.terrain_sampling import bench_height_maps
+
+    torch.set_num_threads(1)
+    return {"engine": "height_maps", **bench_height_maps(spec["num_envs"], spec["device"])}
+
+
+def learner_and_maps(args) -> list[dict]:
+    """PPO update vs collection on a free dummy env (the learner alone), and the critic's height maps at N=4096."""
+    recs = [_run_workers([{"kind": "learner", "num_envs": n, "threads": 2}])[0] for n in (256, 1024)]
+    recs.append(_run_workers([{"kind": "maps", "num_envs": 4096, "device": args.device}])[0])
+    return recs
 
 
 def wp_sync(world):
@@ -235,7 +274,7 @@ def start_times(num_envs: int, device: str, cold: bool) -> dict:
 
 
 def print_table(records: list[dict]) -> None:
-    rows = [r for r in records if r.get("kind") != "start"]
+    rows = [r for r in records if r.get("kind") != "start" and r["engine"] not in ("learner", "height_maps")]
     mj1 = {(r["terrain"], r["num_envs"]): r["env_steps_per_s"] for r in rows
            if r["engine"] == "mujoco" and r.get("threads") == 1}
     print(f"{'engine':8} {'par':>3} {'terrain':7} {'N':>5} {'env-steps/s':>12} {'peak MB':>8} {'MB/env':>7} "
@@ -250,6 +289,13 @@ def print_table(records: list[dict]) -> None:
         if r.get("kind") == "start":
             print(f"Newton world start, N={r['num_envs']}: cold {r['cold_start_s']:.1f} s (empty kernel cache), "
                   f"warm {r['warm_start_s']:.1f} s")
+    for r in records:
+        if r["engine"] == "learner":
+            print(f"learner N={r['num_envs']} (24 steps, {r['epochs']}x{r['mini_batches']}, {r['threads']} threads): "
+                  f"collect {r['collect_s']:.2f} s, update {r['update_s']:.2f} s per iteration, "
+                  f"{r['update_gflops']:.0f} GFLOP/s in the update")
+        if r["engine"] == "height_maps":
+            print(f"height maps (17x11 + 2 x 5x5) N={r['num_envs']}: {r['ms_per_step']:.1f} ms per env step")
     for r in rows:
         if r["engine"] == "task":
             print(f"task {r['terrain']} N={r['num_envs']} x{r['processes']}: env overhead (obs, rewards, sampling, "
@@ -270,13 +316,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--warmup", type=int, default=5, help="env steps before measuring")
     p.add_argument("--device", default="cpu")
     p.add_argument("--no-cold", action="store_true", help="skip the cold-start measurement (~1 min)")
+    p.add_argument("--no-learner", action="store_true", help="skip the learner and height-map timings (~1 min)")
     p.add_argument("--json", type=Path, help="write the records to this file")
     p.add_argument("--worker", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
 
     if args.worker:
         spec = json.loads(args.worker)
-        rec = {"newton": _newton_worker, "mujoco": _mujoco_worker, "task": _task_worker}[spec["kind"]](spec)
+        rec = {"newton": _newton_worker, "mujoco": _mujoco_worker, "task": _task_worker,
+               "learner": _learner_worker, "maps": _maps_worker}[spec["kind"]](spec)
         print(json.dumps(rec))
         return 0
     bad = [n for n in args.num_envs if n < 2 or n % 2]
@@ -293,14 +341,16 @@ def main(argv: list[str] | None = None) -> int:
         for t in args.terrain:
             for n in args.num_envs:
                 for engine in args.engines:
-                    if engine == "task" and t != "flat":
-                        continue  # the task's stairs live in its rough-terrain course, benchmarked separately
+                    if (engine == "task" and t == "stairs") or (engine == "mujoco" and t == "rough"):
+                        continue  # the task walks flat or rough; MuJoCo C is compared on flat and stairs
                     for par in args.parallel:
                         rec = measure(engine, par, t, n, args, mjcf)
                         records.append(rec)
                         print(f"  {engine} x{par} {t} N={n}: {rec['env_steps_per_s']:.0f} env-steps/s, "
                               f"{rec['peak_rss_mb']:.0f} MB, standing {rec['standing']:.2f}", flush=True)
     records.append(start_times(1024, args.device, cold=not args.no_cold))
+    if not args.no_learner:
+        records += learner_and_maps(args)
     print_table(records)
     if args.json:
         tmp = args.json.with_suffix(args.json.suffix + ".tmp")
