@@ -13,8 +13,8 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
 - Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
-- Physical randomisation (mass, CoM, motor strength, friction) is sampled per env when the env is built and on
-  ``randomize_physics()``; pushes and external forces are resampled on per-env timers during episodes.
+- Physical randomisation (mass, CoM, motor strength, friction) is resampled per env at every reset; pushes and
+  external forces come on per-env timers during episodes.
 - Variants: "adaptive" (ours), "fixed_cycle" (the gait actions are ignored, so the clock runs at T_cycle with
   zero offsets; the action stays 26-dim so the network is the same as ours), "clock_free" (no clock inputs and no
   gait actions: actor observation 79, action 23; the contact-pattern reward is off).

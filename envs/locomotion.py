@@ -88,7 +88,6 @@ class LocoEnv(VecEnv):
         self.nominal_mass = self.world.body_mass.sum(1).clone()
         self.mass_offset, self.com_offset = z(N), z(N, 3)
         self.motor_strength, self.friction = torch.ones(N, J, **d), torch.ones(N, **d)
-        self.randomize_physics(torch.arange(N, device=self.device))
 
         self.layout = obs_layout.actor_layout(J, cfg.uses_clock)
         self.num_obs = obs_layout.size(self.layout)
@@ -270,6 +269,7 @@ class LocoEnv(VecEnv):
         self.push_timer[ids] = rd.push_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.force_timer[ids] = rd.force_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.clock.reset(ids)
+        self.randomize_physics(ids)  # every episode meets new physics (one solver update per step, not per env)
         for s in self.episode_sums.values():
             s[ids] = 0.0
         self._resample_commands(ids)

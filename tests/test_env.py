@@ -107,8 +107,10 @@ def test_nan_in_one_world_resets_that_world_only(env):
     assert torch.isfinite(env.world.joint_target).all() and env.actions[5].abs().max() == 0
 
 
-def test_zero_action_rollout_keeps_most_robots_up(env):
-    env.reset_idx(torch.arange(env.num_envs))
+def test_zero_action_rollout_keeps_most_robots_up():
+    # Nominal physics: the reference pose under PD is a stand. (With +-5 cm CoM offsets and 0.8x motors a passive
+    # stand may tip over; balancing those is the policy's job.)
+    env = LocoEnv(LocoConfig(num_envs=8, randomization=DomainRandConfig(enabled=False)))
     fell = torch.zeros(env.num_envs, dtype=torch.bool)
     for _ in range(200):
         _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))

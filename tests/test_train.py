@@ -91,3 +91,20 @@ def test_play_a_trained_policy(trained, capsys):
 
 def test_play_rejects_missing_checkpoint(capsys):
     one_line_error(capsys, play_cli.main(["--agent", "policy"]), "checkpoint")
+
+
+@pytest.mark.slow
+def test_data_parallel_on_cpu_with_torchrun(tmp_path):
+    """Two processes, gloo: rsl-rl's gradient all-reduce runs on the CPU and only rank 0 writes the run."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    torchrun = Path(sys.executable).with_name("torchrun")
+    out = subprocess.run([str(torchrun), "--nproc-per-node", "2", "-m", "train.train", "--num-envs", "4",
+                          "--max-iterations", "1", "--no-export", "--quiet", "--log-dir", str(tmp_path)],
+                         capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.count("run directory:") == 1
+    run_dir = next(tmp_path.iterdir())
+    assert (run_dir / "model_0.pt").is_file()

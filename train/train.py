@@ -126,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     except (UsageError, CheckpointError) as e:
         print(f"cra-train: {e}", file=sys.stderr)
         return 2
-    print(f"run directory: {run_dir}")
+    if int(os.getenv("RANK", "0")) == 0:
+        print(f"run directory: {run_dir}")
     return 0
 
 
