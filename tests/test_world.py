@@ -166,3 +166,18 @@ def test_friction_per_world(world):
     world.set_friction(torch.tensor([0]), torch.tensor([1.0]))
     world.commit_physics()
     assert slide[0] > 0.05 and slide[0] > 5 * slide[1:].max()
+
+
+def test_all_bodies_colliding_with_the_ground_still_stand():
+    """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
+    w = World(ADAM_LITE, WorldConfig(num_envs=2, contacts="all"))
+    h0 = w.root_pos[:, 2].clone()
+    for _ in range(150):
+        w.step()
+    assert (w.root_pos[:, 2] - h0).abs().max() < 0.02
+    q = _airborne_state(w, torch.arange(2))
+    q[:, 2] = 0.3  # pelvis 30 cm up: the legs and pelvis must rest on the ground, not pass through it
+    w.reset(torch.arange(2), joint_q=q)
+    for _ in range(100):
+        w.step()
+    assert w.body_pos[..., 2].min() > -0.05  # with contacts="feet" the same fall sinks the body ~1.1 m
