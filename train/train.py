@@ -111,6 +111,9 @@ def run(a: TrainArgs):
     runner.learn(a.max_iterations)
     if rank == 0 and a.export:
         export_run(runner, env, run_dir / "exported")
+    if torch.distributed.is_initialized():  # leave together: a rank exiting mid-collective aborts the others
+        torch.distributed.barrier()
+        torch.distributed.destroy_process_group()
     return run_dir, runner
 
 
