@@ -24,5 +24,11 @@ def yaw(q: torch.Tensor) -> torch.Tensor:
     return torch.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+def yaw_quat(yaw: torch.Tensor) -> torch.Tensor:
+    """[..., 4] xyzw rotation about world z by ``yaw`` [...] (rad)."""
+    z = torch.zeros_like(yaw)
+    return torch.stack([z, z, torch.sin(yaw / 2), torch.cos(yaw / 2)], -1)
+
+
 def wrap_angle(a: torch.Tensor) -> torch.Tensor:
     return torch.remainder(a + torch.pi, 2.0 * torch.pi) - torch.pi

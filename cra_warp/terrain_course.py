@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 import torch
 
+from cra_warp.rotations import yaw_quat
 from cra_warp.terrain import TERRAIN_TYPES, Terrain, TerrainConfig, generate_terrain
 
 EVAL_KINDS = ("stairs_ascend", "stairs_descend", "slope_ascend", "slope_descend", "uneven")
@@ -62,13 +63,7 @@ class Deployment(NamedTuple):
         """Base position [n, 3] (ground + base_height + clearance) and quaternion [n, 4] xyzw (yaw only)."""
         pos = self.start.clone()
         pos[:, 2] += base_height + clearance
-        return pos, yaw_to_quat_xyzw(self.yaw)
-
-
-def yaw_to_quat_xyzw(yaw: torch.Tensor) -> torch.Tensor:
-    """[...] yaw [rad] -> [..., 4] xyzw."""
-    z = torch.zeros_like(yaw)
-    return torch.stack([z, z, torch.sin(yaw / 2), torch.cos(yaw / 2)], -1)
+        return pos, yaw_quat(self.yaw)
 
 
 class EvalCourse:

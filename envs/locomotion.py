@@ -17,7 +17,7 @@ from tensordict import TensorDict
 
 from cra_warp.gait import GaitClock
 from cra_warp.kinematics import Kinematics
-from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw
+from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
 from cra_warp.world import World
 from envs import observations as obs_layout
 from envs.ground import Ground
@@ -91,6 +91,13 @@ class LocoEnv(VecEnv):
 
         self.layout = obs_layout.actor_layout(J, cfg.uses_clock)
         self.num_obs = obs_layout.size(self.layout)
+        o = cfg.obs
+        self.command_scale = torch.tensor(o.command_scale, **d)
+        self.noise_scale = torch.zeros(self.num_obs, **d)  # uniform noise half-width per actor input
+        self.noise_scale[self.layout["gravity"]] = o.noise_gravity
+        self.noise_scale[self.layout["joint_pos"]] = o.noise_joint_pos
+        self.noise_scale[self.layout["joint_vel"]] = o.noise_joint_vel * o.joint_vel_scale
+        self.noise_scale[self.layout["ang_vel"]] = o.noise_ang_vel * o.ang_vel_scale
         self.priv_layout = obs_layout.privileged_layout(J, len(robot.foot_links), self.ground.foot_map_cells,
                                                         self.num_obs)
         self.reset_idx(torch.arange(N, device=self.device))
@@ -171,10 +178,7 @@ class LocoEnv(VecEnv):
         self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
         self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
         rel = self.sole_centres - w.root_pos.unsqueeze(1)
-        half_yaw = yaw(q) / 2
-        zero = torch.zeros_like(half_yaw)
-        heading = torch.stack([zero, zero, torch.sin(half_yaw), torch.cos(half_yaw)], -1)
-        self.feet_pos_yaw = quat_rotate_inv(heading.unsqueeze(1), rel)
+        self.feet_pos_yaw = quat_rotate_inv(yaw_quat(yaw(q)).unsqueeze(1), rel)
         self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
 
     def _terminations(self):
@@ -198,10 +202,9 @@ class LocoEnv(VecEnv):
 
     # ------------------------------------------------------------------ observations
     def _observations(self) -> TensorDict:
-        o, J = self.cfg.obs, self.robot.num_joints
-        cmd_scale = torch.tensor(o.command_scale, device=self.device)
+        o = self.cfg.obs
         parts = {
-            "command": self.commands * cmd_scale,
+            "command": self.commands * self.command_scale,
             "gravity": self.projected_gravity,
             "joint_pos": self.joint_pos - self.default_q,
             "joint_vel": self.joint_vel * o.joint_vel_scale,
@@ -214,12 +217,8 @@ class LocoEnv(VecEnv):
         actor = torch.cat([parts[k] for k in self.layout], -1)
         noisy = actor
         if o.noise:
-            scale = torch.zeros(self.num_obs, device=self.device)
-            scale[self.layout["gravity"]] = o.noise_gravity
-            scale[self.layout["joint_pos"]] = o.noise_joint_pos
-            scale[self.layout["joint_vel"]] = o.noise_joint_vel * o.joint_vel_scale
-            scale[self.layout["ang_vel"]] = o.noise_ang_vel * o.ang_vel_scale
-            noisy = actor + (2 * torch.rand(actor.shape, device=self.device, generator=self.gen) - 1) * scale
+            unit = 2 * torch.rand(actor.shape, device=self.device, generator=self.gen) - 1
+            noisy = actor + unit * self.noise_scale
 
         w = self.world
         m = w.body_mass.unsqueeze(-1)
@@ -253,8 +252,7 @@ class LocoEnv(VecEnv):
         q[:, :2] = origins[:, :2]
         q[:, 2] = origins[:, 2] + self.robot.base_height + 0.01
         yaw0 = (2 * torch.rand(n, device=self.device, generator=self.gen) - 1) * math.pi
-        q[:, 3:7] = torch.stack([torch.zeros_like(yaw0), torch.zeros_like(yaw0), torch.sin(yaw0 / 2),
-                                 torch.cos(yaw0 / 2)], -1)
+        q[:, 3:7] = yaw_quat(yaw0)
         self.world.reset(ids, joint_q=q)
         self.start_xy[ids] = origins[:, :2]
         self.commanded_dist[ids] = 0.0

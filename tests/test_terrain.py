@@ -11,7 +11,8 @@ import torch
 
 from cra_warp.terrain import TERRAIN_TYPES, TerrainConfig, column_types, generate_terrain
 from cra_warp.terrain_boxes import box_surface, rectangles, terrain_boxes
-from cra_warp.terrain_course import EVAL_KINDS, EvalCourse, EvalCourseConfig, yaw_to_quat_xyzw
+from cra_warp.rotations import yaw_quat
+from cra_warp.terrain_course import EVAL_KINDS, EvalCourse, EvalCourseConfig
 from cra_warp.terrain_curriculum import TerrainCurriculum
 from cra_warp.terrain_sampling import HeightSampler, bench_height_maps, heading_xy
 
@@ -186,7 +187,7 @@ def test_maps_shapes_frames_and_offsets(terrain, sampler):
     u = 2.5                                                        # middle of the +x face
     z0 = terrain.base_height + t * (tile.half_inner - u) + 0.9
     pos = torch.tensor([[cx + u, cy, z0]] * 4)
-    quat = yaw_to_quat_xyzw(torch.tensor([0.0, math.pi / 2, math.pi, -math.pi / 2]))
+    quat = yaw_quat(torch.tensor([0.0, math.pi / 2, math.pi, -math.pi / 2]))
     m = sampler.base_map(pos, quat)
     assert m.shape == (4, 17, 11)
     assert m[0, 8, 5] == pytest.approx(-0.9, abs=1e-3)             # centre point: ground 0.9 m below the base
@@ -364,7 +365,7 @@ class _Stand:
         """Base z so that the lowest sole corner is ``clearance`` above the ground (sampled under each corner)."""
         q = torch.tensor(self.robot.default_q)[None].clone()
         q[0, _ankle_ids(self.robot)] += ankle
-        quat = yaw_to_quat_xyzw(torch.tensor([yaw], dtype=torch.float32))
+        quat = yaw_quat(torch.tensor([yaw], dtype=torch.float32))
         corners = self.kin.feet(torch.tensor([[xy[0], xy[1], 0.0]]), quat, q).sole_corners.reshape(-1, 3)
         z = (self.sampler.heights(corners) - corners[:, 2]).max().item() + clearance
         self.rows.append(torch.cat([torch.tensor([xy[0], xy[1], z]), quat[0], q[0]]))
