@@ -175,7 +175,6 @@ class World:
         builder = newton.ModelBuilder()
         builder.rigid_gap = cfg.contact_gap
         builder.default_shape_cfg.gap = cfg.contact_gap
-        builder.default_shape_cfg.mu = cfg.friction
         builder.replicate(proto, cfg.num_envs, spacing=(0.0, 0.0, 0.0))
         # MuJoCo gives a contact the larger friction of its two geoms: (nearly) frictionless terrain lets each world's robot
         # shapes set the friction, so it can be randomised per world without per-world terrain copies.
@@ -218,12 +217,12 @@ class World:
         # Physical parameters per world [N, ...] (randomise through the set_* methods, which keep them consistent).
         self.body_mass = t(self.model.body_mass).view(N, B)              # [N, B] kg
         self.body_com = t(self.model.body_com).view(N, B, 3)             # [N, B, 3] body frame
+        self.body_inertia = t(self.model.body_inertia).view(N, B, 3, 3)  # [N, B, 3, 3] about the CoM
         self.joint_kp = t(self.model.joint_target_ke).view(N, -1)[:, FREE_QD:]
         self.joint_kd = t(self.model.joint_target_kd).view(N, -1)[:, FREE_QD:]
         self.joint_effort_limit = t(self.model.joint_effort_limit).view(N, -1)[:, FREE_QD:]
         self._nominal = {k: getattr(self, k).clone() for k in
-                         ("body_mass", "body_com", "joint_kp", "joint_kd", "joint_effort_limit")}
-        self._nominal["body_inertia"] = t(self.model.body_inertia).view(N, B, 3, 3).clone()
+                         ("body_mass", "body_com", "body_inertia", "joint_kp", "joint_kd", "joint_effort_limit")}
         shape_body = self.model.shape_body.numpy()
         self._robot_shapes = torch.as_tensor(np.flatnonzero(shape_body >= 0).reshape(N, -1))  # [N, S] world-major
         # The constraint solver starts from the previous step's accelerations; a reset world must not inherit them,
@@ -274,8 +273,7 @@ class World:
     def set_mass_scale(self, env_ids: torch.Tensor, scale: torch.Tensor):
         """Scale every link's mass and inertia of the given worlds by ``scale`` [n, B] relative to nominal."""
         self.body_mass[env_ids] = self._nominal["body_mass"][env_ids] * scale
-        inertia = wp.to_torch(self.model.body_inertia).view(self.num_envs, self.num_bodies, 3, 3)
-        inertia[env_ids] = self._nominal["body_inertia"][env_ids] * scale[..., None, None]
+        self.body_inertia[env_ids] = self._nominal["body_inertia"][env_ids] * scale[..., None, None]
         self._changed |= int(newton.ModelFlags.BODY_INERTIAL_PROPERTIES)
 
     def set_base_com_offset(self, env_ids: torch.Tensor, offset: torch.Tensor):

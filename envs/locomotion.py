@@ -59,6 +59,7 @@ class LocoEnv(VecEnv):
         self.hip_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith(("hipRoll", "hipYaw"))], **d)
         self.waist_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith("waist")], **d)
         self.torso_body = self.world.body_index["torso"]
+        self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
         self.kp = self.world.joint_kp  # [N, J] view: current (randomised) gains
@@ -138,6 +139,7 @@ class LocoEnv(VecEnv):
         rew = torch.where(nonfinite, 0.0, rew)  # nothing from a broken world reaches the learner
         for k, v in terms.items():
             self.episode_sums[k] += v
+        self._advance_history()
 
         extras = {"time_outs": time_out & ~fell & ~nonfinite, "log": {}}
         ids = dones.nonzero().flatten()
@@ -153,20 +155,17 @@ class LocoEnv(VecEnv):
 
     # ------------------------------------------------------------------ state
     def _refresh(self):
-        """Derived tensors of the current state, shared by observations, rewards and terminations."""
+        """Derived tensors of the current state, shared by observations, rewards and terminations. Pure: it may run
+        twice in a step (again after resets, so the reset worlds' observations show their new state)."""
         w = self.world
         q = w.root_quat
         self.root_pos = w.root_pos
         self.base_lin_vel = quat_rotate_inv(q, w.root_lin_vel)
         self.base_ang_vel = quat_rotate_inv(q, w.root_ang_vel)
-        down = torch.tensor([0.0, 0.0, -1.0], device=self.device).expand_as(self.base_lin_vel)
-        self.projected_gravity = quat_rotate_inv(q, down)
-        self.torso_gravity = quat_rotate_inv(w.body_quat[:, self.torso_body], down)
+        self.projected_gravity = quat_rotate_inv(q, self._down)
+        self.torso_gravity = quat_rotate_inv(w.body_quat[:, self.torso_body], self._down)
         self.joint_pos, self.joint_vel, self.joint_target = w.joint_pos, w.joint_vel, w.joint_target
         self.joint_acc = (w.joint_vel - self.last_joint_vel) / self.dt
-        self.last_joint_vel.copy_(w.joint_vel)  # buffers in place: see GaitClock.advance
-        alpha = self.dt / (self.cfg.obs.yaw_rate_filter_tau + self.dt)
-        self.avg_yaw_rate += alpha * (self.base_ang_vel[:, 2] - self.avg_yaw_rate)
 
         feet = self.kin.feet(w.root_pos, q, w.joint_pos)
         self.sole_corners, self.sole_centres, self.feet_quat = feet.sole_corners, feet.sole_centres, feet.quat
@@ -174,12 +173,19 @@ class LocoEnv(VecEnv):
         self.foot_forces = w.foot_forces
         self.contact = self.foot_forces[..., 2] > self.cfg.rewards.contact_threshold
         self.first_contact = self.contact & ~self.last_contact
-        self.last_contact.copy_(self.contact)
         self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
         self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
         rel = self.sole_centres - w.root_pos.unsqueeze(1)
         self.feet_pos_yaw = quat_rotate_inv(yaw_quat(yaw(q)).unsqueeze(1), rel)
         self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
+
+    def _advance_history(self):
+        """Per-step memory, advanced once per step after rewards and terminations read it (buffers in place: see
+        GaitClock.advance)."""
+        self.last_joint_vel.copy_(self.world.joint_vel)
+        self.last_contact.copy_(self.contact)
+        alpha = self.dt / (self.cfg.obs.yaw_rate_filter_tau + self.dt)
+        self.avg_yaw_rate += alpha * (self.base_ang_vel[:, 2] - self.avg_yaw_rate)
 
     def _terminations(self):
         nonfinite = ~(torch.isfinite(self.world.joint_q).all(-1) & torch.isfinite(self.world.joint_qd).all(-1))
