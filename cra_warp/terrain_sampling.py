@@ -5,12 +5,13 @@ foot quats [N, 2, 4] xyzw, and run on the heightfield's device. Heights are bili
 differentiable in the query points; points outside the field clamp to its border.
 
 Cost is about twenty passes over the N x (187 + 2 x 25) points: the map grid is one small matmul per axis, and each
-point gathers its four corners from the one height array with int32 indices. The gathers dominate and are bound by
-cache misses: measured on this CPU at ~1M points, an int32-indexed float32 gather ~1 ms, int64 indices ~3x slower;
-four gathers from four precomputed coefficient arrays (4x the memory) ~2x slower, one packed 16-byte gather ~7x
-slower; grid_sample (~20 ms) and a Warp CPU kernel (~16 ns per point) were slower too. All maps of one env step at
-N=4096 (970k points), one torch thread while other jobs held the second core: ~15 ms eager, ~9.5 ms with
-HeightMapConfig(compile=True); two torch threads on a busy machine were several times slower (thread contention).
+point gathers its four corners from the one height array with int32 indices. The gathers are bound by cache
+misses: measured on this CPU at ~1M points, an int32-indexed float32 gather ~1 ms, int64 indices ~3x slower; four
+gathers from four precomputed coefficient arrays (4x the memory) ~2x slower, one packed 16-byte gather ~7x slower;
+grid_sample (~20 ms) and a Warp CPU kernel (~16 ns per point) were slower too. All maps of one env step at N=4096
+(970k points), quiet machine, freed memory kept (cra_warp.host_memory; with glibc's defaults every temporary
+page-faults and eager takes ~45 ms): eager 19 ms on one torch thread, 14 ms on two; HeightMapConfig(compile=True)
+14 ms on one thread, 7 ms on two. Against ~3 s of Newton step at that N, the maps are < 1% of an env step.
 """
 
 from __future__ import annotations

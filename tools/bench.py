@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from cra_warp.host_memory import keep_freed_memory
+
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
 TERRAINS = ("flat", "stairs", "rough")  # rough: the full training course (897 boxes), robots on its level-0 tiles
 ENGINES = ("newton", "mujoco", "task")  # task: the full locomotion env (Newton + obs, rewards, resets)
@@ -141,16 +143,21 @@ def _learner_worker(spec: dict) -> dict:
 def _maps_worker(spec: dict) -> dict:
     import torch
 
-    from cra_warp.terrain_sampling import bench_height_maps
+    from cra_warp.terrain import generate_terrain
+    from cra_warp.terrain_sampling import HeightMapConfig, HeightSampler, bench_height_maps
 
-    torch.set_num_threads(1)
-    return {"engine": "height_maps", **bench_height_maps(spec["num_envs"], spec["device"])}
+    torch.set_num_threads(spec["threads"])
+    sampler = HeightSampler(generate_terrain().field, spec["device"], HeightMapConfig(compile=spec["compile"]))
+    return {"engine": "height_maps", "compile": spec["compile"],
+            **bench_height_maps(spec["num_envs"], spec["device"], sampler=sampler)}
 
 
 def learner_and_maps(args) -> list[dict]:
     """PPO update vs collection on a free dummy env (the learner alone), and the critic's height maps at N=4096."""
     recs = [_run_workers([{"kind": "learner", "num_envs": n, "threads": 2}])[0] for n in (256, 1024)]
-    recs.append(_run_workers([{"kind": "maps", "num_envs": 4096, "device": args.device}])[0])
+    for threads, compiled in ((1, False), (1, True), (2, True)):
+        recs += _run_workers([{"kind": "maps", "num_envs": 4096, "device": args.device, "threads": threads,
+                               "compile": compiled}])
     return recs
 
 
@@ -295,7 +302,8 @@ def print_table(records: list[dict]) -> None:
                   f"collect {r['collect_s']:.2f} s, update {r['update_s']:.2f} s per iteration, "
                   f"{r['update_gflops']:.0f} GFLOP/s in the update")
         if r["engine"] == "height_maps":
-            print(f"height maps (17x11 + 2 x 5x5) N={r['num_envs']}: {r['ms_per_step']:.1f} ms per env step")
+            print(f"height maps (17x11 + 2 x 5x5) N={r['num_envs']}, {'compiled' if r['compile'] else 'eager'}, "
+                  f"{r['torch_threads']} thread(s): {r['ms_per_step']:.1f} ms per env step")
     for r in rows:
         if r["engine"] == "task":
             print(f"task {r['terrain']} N={r['num_envs']} x{r['processes']}: env overhead (obs, rewards, sampling, "
@@ -321,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--worker", help=argparse.SUPPRESS)
     args = p.parse_args(argv)
 
+    keep_freed_memory()  # as cra-train does: measure what training runs with
     if args.worker:
         spec = json.loads(args.worker)
         rec = {"newton": _newton_worker, "mujoco": _mujoco_worker, "task": _task_worker,

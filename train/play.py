@@ -44,9 +44,11 @@ def make_agent(a: PlayArgs, env):
 def run(a: PlayArgs) -> dict:
     import torch
 
+    from cra_warp.host_memory import keep_freed_memory
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
+    keep_freed_memory()
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
         from train.runner import runner_for_checkpoint
 

@@ -87,6 +87,7 @@ def run(a: TrainArgs):
     """Train as the arguments say; returns (run directory, runner)."""
     import torch
 
+    from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
     from envs.loco_config import LocoConfig
@@ -94,6 +95,7 @@ def run(a: TrainArgs):
     from train.export import export_run
     from train.runner import CraRunner
 
+    keep_freed_memory()  # batched CPU tensors page-fault on every allocation otherwise (see host_memory)
     rank = int(os.getenv("RANK", "0"))
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
     env_variant, contrast = VARIANTS[a.variant]
