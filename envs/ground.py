@@ -3,7 +3,9 @@ points and the terrain curriculum.
 
 "flat": the ground plane; robots spawn on a 2 m grid (worlds never collide with each other: the spacing only keeps
 a recorded rollout readable). "rough": cra_warp.terrain's curriculum course (stairs, slopes, uneven ground), its
-collision boxes and its level curriculum. Both sample heights through the same HeightSampler.
+collision boxes and its level curriculum. "eval": the evaluation course (cra_warp.terrain_course); every robot
+spawns at its deployment's start pose, facing its target, and no curriculum runs. All sample heights through the
+same HeightSampler.
 """
 
 from __future__ import annotations
@@ -15,21 +17,31 @@ import torch
 
 from cra_warp.terrain import HeightField, TerrainConfig, generate_terrain
 from cra_warp.terrain_boxes import terrain_boxes
+from cra_warp.terrain_course import Deployment, EvalCourse, EvalCourseConfig
 from cra_warp.terrain_curriculum import TerrainCurriculum
 from cra_warp.terrain_sampling import HeightSampler
 from cra_warp.world import TerrainBoxes
 
-GROUND_KINDS = ("flat", "rough")
+GROUND_KINDS = ("flat", "rough", "eval")
 
 
 class Ground:
-    def __init__(self, kind: str, num_envs: int, device: torch.device, seed: int = 0):
+    def __init__(self, kind: str, num_envs: int, device: torch.device, seed: int = 0,
+                 course: EvalCourseConfig | None = None):
         if kind not in GROUND_KINDS:
             raise ValueError(f"LocoConfig.terrain must be one of {GROUND_KINDS}, got {kind!r}")
         self.kind = kind
         self.boxes: TerrainBoxes | None = None
         self.curriculum: TerrainCurriculum | None = None
-        if kind == "rough":
+        self.course: EvalCourse | None = None
+        self.deployment: Deployment | None = None
+        if kind == "eval":
+            self.course = EvalCourse(course)
+            per_level = num_envs // self.course.starts[..., 0].size   # LocoConfig checked divisibility
+            self.deployment = self.course.deploy(per_level, device)
+            self.boxes = terrain_boxes(self.course.terrain)
+            field = self.course.terrain.field
+        elif kind == "rough":
             terrain = generate_terrain(TerrainConfig(seed=seed))
             self.boxes = terrain_boxes(terrain)
             self.curriculum = TerrainCurriculum(terrain, num_envs, device, seed=seed)
@@ -59,7 +71,13 @@ class Ground:
 
     def spawn_origins(self, ids: torch.Tensor) -> torch.Tensor:
         """[n, 3] ground points where the envs ``ids`` start their next episode."""
+        if self.deployment is not None:
+            return self.deployment.start[ids]
         return self.curriculum.origins[ids] if self.curriculum is not None else self._origins[ids]
+
+    def spawn_yaw(self, ids: torch.Tensor) -> torch.Tensor | None:
+        """[n] start headings of the envs ``ids`` on the evaluation course (facing the target); None: any heading."""
+        return self.deployment.yaw[ids] if self.deployment is not None else None
 
     def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor):
         if self.curriculum is not None:

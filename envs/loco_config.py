@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from cra_warp.gait import GaitClockConfig
+from cra_warp.terrain_course import EvalCourseConfig
 from cra_warp.world import WorldConfig
 
 Variant = Literal["adaptive", "fixed_cycle", "clock_free"]
@@ -137,7 +138,8 @@ class LocoConfig:
     obs: ObsConfig = field(default_factory=ObsConfig)
     rewards: RewardConfig = field(default_factory=RewardConfig)
     randomization: DomainRandConfig = field(default_factory=DomainRandConfig)
-    terrain: str = "flat"                                 # "flat" or "rough" (the curriculum course)
+    terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
+    course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
     clip_joint_actions: float = 10.0
     fall_height: float = 0.45                             # [m] pelvis above the ground under it
     fall_gravity_z: float = -0.5                          # base-frame gravity z above this = tilted over
@@ -153,6 +155,10 @@ class LocoConfig:
         unknown = set(self.rewards.weights) - set(DEFAULT_WEIGHTS)
         if unknown:
             raise ValueError(f"LocoConfig.rewards.weights has unknown terms {sorted(unknown)}")
+        trials = len(self.course.kinds) * self.course.num_levels
+        if self.terrain == "eval" and self.num_envs % trials:
+            raise ValueError(f"LocoConfig.num_envs must be a multiple of {trials} (course kinds x levels) on the "
+                             f"evaluation course, got {self.num_envs}")
         self.world.num_envs, self.world.device = self.num_envs, self.device
 
     @property

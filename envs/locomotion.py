@@ -41,7 +41,7 @@ class LocoEnv(VecEnv):
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.dt)
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
 
-        self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed)
+        self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course)
         self.world = World(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
@@ -257,7 +257,9 @@ class LocoEnv(VecEnv):
         q = self.world.default_joint_q[ids].clone()
         q[:, :2] = origins[:, :2]
         q[:, 2] = origins[:, 2] + self.robot.base_height + 0.01
-        yaw0 = (2 * torch.rand(n, device=self.device, generator=self.gen) - 1) * math.pi
+        yaw0 = self.ground.spawn_yaw(ids)
+        if yaw0 is None:
+            yaw0 = (2 * torch.rand(n, device=self.device, generator=self.gen) - 1) * math.pi
         q[:, 3:7] = yaw_quat(yaw0)
         self.world.reset(ids, joint_q=q)
         self.start_xy[ids] = origins[:, :2]
@@ -295,13 +297,28 @@ class LocoEnv(VecEnv):
         self.heading[ids] = self._uniform(-math.pi, math.pi, n)
         self.command_timer[ids] = c.resample_time
 
+    def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor):
+        """Command base velocities [N, 2] and world headings [N] (the yaw rate follows the heading) instead of
+        random ones; they hold until the next call (a reset robot draws random ones until then). Refreshes the
+        observation so the next action already sees them."""
+        self.commands[:, :2] = lin_vel_xy
+        self.heading.copy_(heading)
+        self.command_timer.fill_(math.inf)
+        if self.cfg.commands.heading_mode:
+            self._heading_control()
+        self.obs = self._observations()
+
+    def _heading_control(self):
+        c = self.cfg.commands
+        err = wrap_angle(self.heading - yaw(self.world.root_quat))
+        moving = self.commands[:, :2].norm(dim=-1) > 0
+        self.commands[:, 2] = torch.where(moving, (c.heading_gain * err).clamp(*c.ang_vel_yaw), 0.0)
+
     def _perturb(self):
         """Heading control, pushes and external forces on per-env timers; integrates the commanded distance."""
         c, rd = self.cfg.commands, self.cfg.randomization
         if c.heading_mode:
-            err = wrap_angle(self.heading - yaw(self.world.root_quat))
-            moving = self.commands[:, :2].norm(dim=-1) > 0
-            self.commands[:, 2] = torch.where(moving, (c.heading_gain * err).clamp(*c.ang_vel_yaw), 0.0)
+            self._heading_control()
         self.commanded_dist += self.commands[:, :2].norm(dim=-1) * self.dt
         if not rd.enabled:
             return

@@ -1,10 +1,11 @@
-"""The user-facing commands: cra-train (bad input, checkpoints, resume, export), cra-export, cra-play."""
+"""The user-facing commands: cra-train (bad input, checkpoints, resume, export), cra-export, cra-play, cra-eval."""
 
 import json
 
 import pytest
 import torch
 
+from train import evaluate as eval_cli
 from train import export as export_cli
 from train import play as play_cli
 from train import train as train_cli
@@ -87,6 +88,19 @@ def test_play_a_trained_policy(trained, capsys):
     assert play_cli.main([str(first / "model_1.pt"), "--num-envs", "2", "--steps", "10"]) == 0
     out = capsys.readouterr().out
     assert "vel_tracking_rmse" in out and "falls_per_robot_minute" in out
+
+
+def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
+    first, _ = trained
+    out = tmp_path / "eval.json"
+    assert eval_cli.main([str(first / "model_1.pt"), "--agent-zero", "--kinds", "stairs_ascend",
+                          "--robots-per-level", "1", "--speeds", "8", "--json", str(out)]) == 0
+    records = json.loads(out.read_text())
+    assert len(records) == 2 * 7                     # two policies x seven step heights
+    assert {r["policy"] for r in records} == {str(first / "model_1.pt"), "zero"}
+    assert [r["difficulty"] for r in records[:7]] == pytest.approx([0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35])
+    assert all(0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["fall_rate"] <= 1.0 for r in records)
+    assert "stairs_ascend" in capsys.readouterr().out
 
 
 def test_play_rejects_missing_checkpoint(capsys):

@@ -1,0 +1,89 @@
+"""The evaluator (cra-eval): success bookkeeping, a deployment on the evaluation course, bad input."""
+
+import pytest
+import torch
+
+from train import evaluate as eval_cli
+
+
+def test_tally_success_needs_reaching_before_any_fall():
+    t = eval_cli.Tally(4, "cpu")
+    on = torch.ones(4, dtype=torch.bool)
+    # robot 0 falls then reaches; 1 reaches then falls; 2 reaches after its trial ended; 3 never reaches
+    t.update(torch.tensor([0, 1, 0, 0]).bool(), torch.tensor([1, 0, 0, 0]).bool(), on)
+    t.update(torch.tensor([1, 0, 0, 0]).bool(), torch.tensor([0, 1, 0, 0]).bool(), on)
+    t.update(torch.tensor([0, 0, 1, 0]).bool(), torch.zeros(4, dtype=torch.bool), torch.tensor([1, 1, 0, 1]).bool())
+    assert t.succeeded.tolist() == [False, True, False, False]
+    assert t.fell.tolist() == [True, False, False, False]
+
+
+@pytest.fixture(scope="module")
+def course_env():
+    """One robot per level on the stair ascent and the slope descent of the evaluation course."""
+    from cra_warp.terrain_course import EvalCourseConfig
+    from envs.loco_config import DomainRandConfig, LocoConfig
+    from envs.locomotion import LocoEnv
+
+    return LocoEnv(LocoConfig(num_envs=14, terrain="eval", course=EvalCourseConfig(kinds=("stairs_ascend",
+                              "slope_descend")), randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
+
+
+def test_robots_spawn_at_their_starts_facing_their_targets(course_env):
+    from cra_warp.rotations import yaw
+
+    env, dep = course_env, course_env.ground.deployment
+    assert torch.allclose(env.root_pos[:, :2], dep.start[:, :2], atol=1e-3)
+    height = env.root_pos[:, 2] - dep.start[:, 2]
+    assert torch.allclose(height, torch.full_like(height, env.robot.base_height + 0.01), atol=0.02)
+    to_target = dep.target[:, :2] - dep.start[:, :2]
+    assert torch.allclose(yaw(env.world.root_quat), torch.atan2(to_target[:, 1], to_target[:, 0]), atol=1e-3)
+
+
+def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
+    """The PD stand (zero actions) never walks 3.75 m, and never falls on the course's flat start rims and top
+    platforms; with a target radius wider than the start-target distance every one of them succeeds."""
+    env = course_env
+
+    def zero(obs, dones):
+        return torch.zeros(env.num_envs, env.num_actions)
+
+    far = eval_cli.evaluate(env, zero, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
+    assert not far.succeeded.any() and not far.fell.any()
+    env.ground.deployment = env.ground.deployment._replace(radius=4.0)
+    near = eval_cli.evaluate(env, zero, speed=8.0)
+    assert near.succeeded.all() and not near.fell.any()
+
+
+def test_commands_point_at_the_target(course_env):
+    env, dep = course_env, course_env.ground.deployment
+    to_target = dep.target[:, :2] - env.root_pos[:, :2]
+    env.hold_commands(torch.tensor([0.4, 0.0]).expand(env.num_envs, 2), torch.atan2(to_target[:, 1], to_target[:, 0]))
+    assert torch.equal(env.commands[:, 0], torch.full((env.num_envs,), 0.4))
+    assert env.commands[:, 2].abs().max() < 0.1     # already facing the target: (almost) no turn commanded
+    assert torch.isinf(env.command_timer).all()     # no resampling while held
+    layout = env.layout["command"]
+    assert torch.allclose(env.obs["policy"][:, layout][:, 0], 0.4 * env.cfg.obs.command_scale[0] * torch.ones(14))
+
+
+def test_eval_terrain_needs_whole_levels():
+    from envs.loco_config import LocoConfig
+
+    with pytest.raises(ValueError, match="LocoConfig.num_envs must be a multiple of 35"):
+        LocoConfig(num_envs=36, terrain="eval")
+
+
+def one_line_error(capsys, code, word):
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err and word in err, err
+
+
+@pytest.mark.parametrize("args, word", [
+    ([], "nothing to evaluate"),
+    (["/nonexistent/model_1.pt"], "checkpoint not found"),
+    (["--agent-zero", "--kinds", "ladder"], "--kinds"),
+    (["--agent-zero", "--robots-per-level", "0"], "--robots-per-level"),
+    (["--agent-zero", "--speeds", "-1"], "--speeds"),
+    (["--agent-zero", "--device", "tpu"], "--device"),
+])
+def test_eval_rejects_bad_values(capsys, args, word):
+    one_line_error(capsys, eval_cli.main(args), word)

@@ -1,0 +1,185 @@
+"""cra-eval: success rates of policies on the evaluation course (paper IV-B: reach the target without falling).
+
+    cra-eval runs/<run>/model_120.pt                          # one policy, 10 robots per difficulty level
+    cra-eval a/model_120.pt b/model_120.pt --agent-zero --speeds 0.3 0.6 --json eval.json
+
+Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
+(the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
+speed with its heading steered at the target. A robot succeeds when its base comes within the target radius before
+it ever falls; a fallen robot is respawned by the env but stays failed. A trial lasts twice the start-target
+distance over the speed, plus 2 s. Physical randomisation, pushes and shoves are off (the nominal robot); the
+actor's observation noise stays on. --agent-zero adds the PD stand at the reference pose as a floor.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import torch
+from tyro.conf import Positional
+
+from train.train import UsageError, check_device
+
+ZERO = "zero"  # the name of the PD-stand baseline in reports
+
+
+@dataclass
+class EvalArgs:
+    checkpoints: Positional[tuple[Path, ...]] = ()   # cra-train checkpoints to compare (model_<it>.pt)
+    agent_zero: bool = False                         # also evaluate zero actions (the PD stand)
+    speeds: tuple[float, ...] = (0.5,)               # forward commands [m/s]
+    robots_per_level: int = 10
+    kinds: tuple[str, ...] = ()                      # a subset of the course kinds; default all
+    device: str = "cpu"
+    seed: int = 0
+    json: Path | None = None                         # write the records (one per policy, speed, kind, level)
+
+
+class Tally:
+    """Per-robot outcome of one deployment: a robot succeeds at the first step its base is within the target
+    radius, provided it has not fallen before; falls after success do not undo it."""
+
+    def __init__(self, num: int, device):
+        self.fell = torch.zeros(num, dtype=torch.bool, device=device)
+        self.succeeded = torch.zeros(num, dtype=torch.bool, device=device)
+
+    def update(self, reached: torch.Tensor, fell: torch.Tensor, active: torch.Tensor):
+        """reached / fell [n] bool this step; only ``active`` robots (trial still running) count."""
+        self.succeeded |= reached & ~self.fell & active
+        self.fell |= fell & active & ~self.succeeded
+
+
+def trial_steps(dep, speed: float, dt: float) -> torch.Tensor:
+    """[n] steps each robot's trial lasts: twice its start-target distance at ``speed``, plus 2 s."""
+    dist = (dep.target[:, :2] - dep.start[:, :2]).norm(dim=-1)
+    return ((2 * dist / speed + 2.0) / dt).ceil().long()
+
+
+def evaluate(env, act, speed: float) -> Tally:
+    """Run one deployment (env on the "eval" terrain) to the end of its longest trial. ``act(obs, dones)`` returns
+    actions and resets whatever recurrent state it keeps for the robots in ``dones``."""
+    dep = env.ground.deployment
+    steps = trial_steps(dep, speed, env.dt)
+    tally = Tally(env.num_envs, env.device)
+    forward = torch.tensor([speed, 0.0], device=env.device).expand(env.num_envs, 2)
+    dones = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+    with torch.inference_mode():
+        for k in range(int(steps.max())):
+            to_target = dep.target[:, :2] - env.root_pos[:, :2]
+            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]))
+            _, _, d, extras = env.step(act(env.get_observations(), dones))
+            dones = d.bool()
+            fell = dones & ~extras["time_outs"]
+            # a fallen robot was respawned inside step(): its position no longer tells where it got to
+            tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps)
+    return tally
+
+
+def _policies(a: EvalArgs):
+    """(name, factory) pairs; factory(num_envs, overrides) -> (env, act)."""
+    from envs.loco_config import LocoConfig
+    from envs.locomotion import LocoEnv
+
+    def zero(num_envs, overrides):
+        env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed, **overrides))
+        return env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions, device=env.device)
+
+    def checkpoint(path):
+        def make(num_envs, overrides):
+            from train.runner import runner_for_checkpoint
+
+            runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, seed=a.seed, **overrides)
+            policy = runner.get_inference_policy(a.device)
+
+            def act(obs, dones):
+                policy.reset(dones)  # a respawned robot starts with a fresh recurrent state
+                return policy(obs)   # deterministic (mean) actions
+            return env, act
+        return make
+
+    out = [(str(p), checkpoint(p)) for p in a.checkpoints]
+    return out + [(ZERO, zero)] if a.agent_zero else out
+
+
+def run(a: EvalArgs) -> list[dict]:
+    from cra_warp.host_memory import keep_freed_memory
+    from cra_warp.terrain_course import EVAL_KINDS, EvalCourseConfig
+    from envs.loco_config import DomainRandConfig
+
+    keep_freed_memory()
+    course = EvalCourseConfig(kinds=a.kinds or EVAL_KINDS)
+    num_envs = len(course.kinds) * course.num_levels * a.robots_per_level
+    records = []
+    for name, make in _policies(a):
+        for speed in a.speeds:
+            torch.manual_seed(a.seed)
+            overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
+                             episode_length_s=1e6)  # no time-outs: the trial clock is the evaluator's
+            env, act = make(num_envs, overrides)
+            tally = evaluate(env, act, speed)
+            c, dep = env.ground.course, env.ground.deployment
+            success = c.success_rate(dep, tally.succeeded)
+            falls = c.success_rate(dep, tally.fell)
+            for k, kind in enumerate(c.kinds):
+                for lv in range(c.cfg.num_levels):
+                    records.append({"policy": name, "speed": speed, "kind": kind, "level": lv,
+                                    "difficulty": float(c.difficulty[k, lv]), "robots": a.robots_per_level,
+                                    "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv])})
+    return records
+
+
+def print_table(records: list[dict]) -> None:
+    """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top."""
+    units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
+    blocks = {}
+    for r in records:
+        blocks.setdefault((r["policy"], r["speed"]), []).append(r)
+    for (policy, speed), rs in blocks.items():
+        print(f"\n{policy} @ {speed:.2f} m/s: success % (falls %), {rs[0]['robots']} robots per level")
+        for kind in dict.fromkeys(r["kind"] for r in rs):
+            row = [r for r in rs if r["kind"] == kind]
+            unit, scale = units[kind.split("_")[0]]
+            print(f"  {kind:15} " + " ".join(f"{r['difficulty'] * scale:>6.0f}{unit:<3}" for r in row))
+            print(f"  {'':15} " + " ".join(f"{100 * r['success_rate']:>4.0f} ({100 * r['fall_rate']:>2.0f})"
+                                           for r in row))
+
+
+def main(argv: list[str] | None = None) -> int:
+    import tyro
+
+    from cra_warp.learning.checkpoint import CheckpointError
+    from cra_warp.terrain_course import EVAL_KINDS
+
+    a = tyro.cli(EvalArgs, args=argv, description=__doc__.split("\n\n")[0])
+    try:
+        if not a.checkpoints and not a.agent_zero:
+            raise UsageError("nothing to evaluate: give checkpoints and/or --agent-zero")
+        missing = [str(p) for p in a.checkpoints if not p.is_file()]
+        if missing:
+            raise UsageError(f"checkpoint not found: {', '.join(missing)}")
+        bad = [k for k in a.kinds if k not in EVAL_KINDS]
+        if bad:
+            raise UsageError(f"--kinds must be among {', '.join(EVAL_KINDS)}, got {', '.join(bad)}")
+        if a.robots_per_level < 1:
+            raise UsageError(f"--robots-per-level must be >= 1, got {a.robots_per_level}")
+        if not a.speeds or min(a.speeds) <= 0:
+            raise UsageError(f"--speeds must be > 0 m/s, got {a.speeds}")
+        check_device(a.device)
+        records = run(a)
+    except (UsageError, CheckpointError) as e:
+        print(f"cra-eval: {e}", file=sys.stderr)
+        return 2
+    print_table(records)
+    if a.json is not None:
+        tmp = a.json.with_suffix(a.json.suffix + ".tmp")
+        tmp.write_text(json.dumps(records, indent=1))
+        tmp.replace(a.json)
+        print(f"wrote {a.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
