@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import re
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -25,6 +25,7 @@ from newton import JointTargetMode
 from mujoco_warp import OverflowType
 from newton.sensors import SensorContact
 
+from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows, WindowConfig
 from robots.robot_config import RobotConfig
 
 FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
@@ -46,6 +47,9 @@ class WorldConfig:
     nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
     njmax: int | None = None            # constraint rows per world; None: sized from nconmax
     capture: bool = True                # record one env step as a graph and replay it (CPU and CUDA)
+    # Terrain boxes: each world holds the boxes near its robot (cra_warp.terrain_window); None: every world
+    # collides with the whole course (its broad phase then grows with the box count).
+    terrain_window: WindowConfig | None = field(default_factory=WindowConfig)
 
     def __post_init__(self):
         if self.num_envs < 1:
@@ -62,7 +66,8 @@ class WorldConfig:
 
 @dataclass
 class TerrainBoxes:
-    """Static boxes shared by every world (world -1): stairs, grid cells. Arrays of length B."""
+    """Static terrain boxes (stairs, grid cells, slope slabs), in each world's window or shared by all worlds.
+    Arrays of length B."""
 
     centers: np.ndarray                  # [B, 3] m
     half_extents: np.ndarray             # [B, 3] m
@@ -129,6 +134,9 @@ class World:
         self._changed = 0  # ModelFlags of parameters set but not yet handed to the solver
         self._make_views()
         self.default_joint_q = self.joint_q.clone()
+        self.windows: TerrainWindows | None = None
+        if terrain is not None and cfg.terrain_window is not None:
+            self._init_windows(terrain)
         self.graph = None
         if cfg.capture:
             self._simulate()  # warm-up outside the capture: kernels compile and load here
@@ -172,15 +180,23 @@ class World:
                 if proto.shape_body[s] not in foot_bodies:
                     proto.shape_flags[s] &= ~int(newton.ShapeFlags.COLLIDE_SHAPES)
 
+        # MuJoCo gives a contact the larger friction of its two geoms: (nearly) frictionless terrain lets each world's robot
+        # shapes set the friction, so it can be randomised per world without per-world terrain copies.
+        terrain_mu = 1e-3  # ~0 (MuJoCo warns below 1e-5)
+        windowed = terrain is not None and cfg.terrain_window is not None
+        if windowed:  # this world's window slots: static boxes, placed by _follow_terrain
+            slot_cfg = newton.ModelBuilder.ShapeConfig(mu=terrain_mu, gap=cfg.contact_gap)
+            for _ in range(cfg.terrain_window.slots):
+                proto.add_shape_box(-1, xform=wp.transform(wp.vec3(0.0, 0.0, PARK_DEPTH), wp.quat_identity()),
+                                    hx=PARK_HALF, hy=PARK_HALF, hz=PARK_HALF, cfg=slot_cfg)
+
         builder = newton.ModelBuilder()
         builder.rigid_gap = cfg.contact_gap
         builder.default_shape_cfg.gap = cfg.contact_gap
         builder.replicate(proto, cfg.num_envs, spacing=(0.0, 0.0, 0.0))
-        # MuJoCo gives a contact the larger friction of its two geoms: (nearly) frictionless terrain lets each world's robot
-        # shapes set the friction, so it can be randomised per world without per-world terrain copies.
-        builder.default_shape_cfg.mu = 1e-3  # ~0 (MuJoCo warns below 1e-5)
+        builder.default_shape_cfg.mu = terrain_mu
         builder.add_ground_plane()
-        if terrain is not None:
+        if terrain is not None and not windowed:
             quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
             for c, h, q in zip(terrain.centers, terrain.half_extents, quats):
                 builder.add_shape_box(-1, xform=wp.transform(wp.vec3(*c), wp.quat(*q)), hx=h[0], hy=h[1], hz=h[2])
@@ -229,6 +245,28 @@ class World:
         # so that its trajectory depends only on the state it was reset to.
         self._warmstart = t(self.solver.mjw_data.qacc_warmstart)
 
+    def _init_windows(self, terrain: TerrainBoxes):
+        N, dev = self.num_envs, self.joint_q.device
+        quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
+        self.windows = TerrainWindows(terrain.centers, terrain.half_extents, quats, N, self.cfg.terrain_window, dev)
+        shape_body, shape_world = self.model.shape_body.numpy(), self.model.shape_world.numpy()
+        slots = np.flatnonzero((shape_body == -1) & (shape_world >= 0))
+        self._slot_shapes = torch.as_tensor(slots.reshape(N, self.cfg.terrain_window.slots), device=dev)  # [N, K]
+        self._shape_pose = wp.to_torch(self.model.shape_transform)   # [S, 7] position, quaternion xyzw
+        self._shape_scale = wp.to_torch(self.model.shape_scale)      # [S, 3] a box's half extents
+        self._follow_terrain()
+
+    def _follow_terrain(self):
+        """Refill the windows of the worlds whose robot moved away from its window's centre (or was reset)."""
+        ids = self.windows.stale(self.root_pos[:, :2])
+        if len(ids) == 0:
+            return
+        centers, half, quats = self.windows.select(ids, self.root_pos[ids, :2])
+        shapes = self._slot_shapes[ids]
+        self._shape_pose[shapes] = torch.cat([centers, quats], -1)
+        self._shape_scale[shapes] = half
+        self.solver.notify_model_changed(newton.ModelFlags.SHAPE_PROPERTIES)
+
     # ---------------------------------------------------------------- stepping
     def _simulate(self):
         s0, s1 = self.state_0, self.state_1
@@ -243,6 +281,8 @@ class World:
 
     def step(self):
         """Advance one env step (substeps x sim_dt). The views hold the new state afterwards."""
+        if self.windows is not None:
+            self._follow_terrain()
         if self.graph is not None:
             wp.capture_launch(self.graph)
         else:

@@ -26,7 +26,7 @@ from pathlib import Path
 from cra_warp.host_memory import keep_freed_memory
 
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
-TERRAINS = ("flat", "stairs", "rough")  # rough: the full training course (897 boxes), robots on its level-0 tiles
+TERRAINS = ("flat", "stairs", "rough")  # rough: the training course (897 boxes, per-world windows), level-0 tiles
 ENGINES = ("newton", "mujoco", "task")  # task: the full locomotion env (Newton + obs, rewards, resets)
 
 
@@ -79,7 +79,9 @@ def _newton_worker(spec: dict) -> dict:
         terrain, ground = stairs() if spec["terrain"] == "stairs" else (None, 0.0)
         origins = torch.tensor([0.0, 0.0, ground]).repeat(n, 1)
     t0 = time.perf_counter()
-    world = World(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"]), terrain)
+    # stairs: shared boxes, the very model MuJoCo C runs; rough: per-world windows of the course, as training does
+    window = {} if spec["terrain"] == "rough" else {"terrain_window": None}
+    world = World(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], **window), terrain)
     q = world.default_joint_q.clone()
     q[:, :3] += origins.to(q.device)
     world.default_joint_q.copy_(q)
@@ -232,7 +234,8 @@ def export_mjcf(terrain: str, path: str) -> None:
 
     newton.solvers.SolverMuJoCo.__init__ = with_export
     try:
-        World(ADAM_LITE, WorldConfig(num_envs=1, capture=False), stairs()[0] if terrain == "stairs" else None)
+        World(ADAM_LITE, WorldConfig(num_envs=1, capture=False, terrain_window=None),
+              stairs()[0] if terrain == "stairs" else None)
     finally:
         newton.solvers.SolverMuJoCo.__init__ = init
 
