@@ -127,6 +127,9 @@ class LearnerConfig:
     experiment_name: str = "cra_loco"
     run_name: str = ""
     check_for_nan: bool = True
+    # rsl-rl compiles actor and critic with torch.compile in this mode (None: eager). Measured on this CPU
+    # (tools/bench_learner.py): no gain for the GRU models, so eager is the default.
+    torch_compile_mode: str | None = None
 
 
 def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) -> dict:
@@ -151,6 +154,7 @@ def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) ->
         "experiment_name": cfg.experiment_name,
         "run_name": cfg.run_name,
         "check_for_nan": cfg.check_for_nan,
+        "torch_compile_mode": cfg.torch_compile_mode,
         "actor": {
             "class_name": actor_cls,
             "hidden_dims": list(a.hidden_dims), "activation": a.activation, "obs_normalization": a.obs_normalization,
