@@ -26,6 +26,9 @@ def one_line_error(capsys, code: int, *words: str):
     (["--variant", "magic"], "--variant"),
     (["--task", "moon"], "--task"),
     (["--resume", "/nonexistent/model_3.pt"], "no such file"),
+    (["--epochs", "0"], "--epochs"),
+    (["--mini-batches", "200"], "--mini-batches"),
+    (["--contrast-tau", "0"], "--contrast-tau"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, train_cli.main(args), word)
@@ -101,6 +104,20 @@ def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
     assert [r["difficulty"] for r in records[:7]] == pytest.approx([0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35])
     assert all(0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["fall_rate"] <= 1.0 for r in records)
     assert "stairs_ascend" in capsys.readouterr().out
+
+
+def test_learner_bench_reads_the_progress_line(capsys):
+    """cra-bench-learner parses cra-train's progress lines: the format and the parser must agree."""
+    import types
+
+    from tools.bench_learner import PROGRESS
+    from train.runner import CraRunner
+
+    fake = types.SimpleNamespace(_t0=0.0)
+    CraRunner._progress(fake, {"it": 4, "env_steps_per_s": 948.2, "collect_s": 12.8, "update_s": 13.15,
+                               "reward": 3.0, "episode_s": 1.0}, 0, 10)
+    m = PROGRESS.search(capsys.readouterr().out)
+    assert m and m.groups() == ("5", "948", "12.8", "13.2")
 
 
 def test_play_rejects_missing_checkpoint(capsys):
