@@ -4,7 +4,7 @@ Why: MuJoCo Warp tests every (robot geom, terrain geom) pair of a world in its b
 course shared by all worlds costs in proportion to its box count. Measured at N=256 (sole contacts only): the
 897-box training course slowed the Newton step by 16% with every robot standing on plain ground far from any box.
 With windows each world has ``slots`` static boxes, refilled from the course whenever its robot moves more than
-``recentre`` from the window's centre; unused slots are parked deep below the ground.
+``recentre`` from the window's centre (along x or y); unused slots are parked deep below the ground.
 
 A window is the square of half-width ``half_width`` around its centre; it holds every box whose footprint (the xy
 bounding box of the possibly rotated box) meets the square. On the default course a 2 m half-width window meets at
@@ -27,7 +27,7 @@ PARK_HALF = 0.05      # [m] half extent of an unused slot's box
 class WindowConfig:
     slots: int = 48            # boxes per world
     half_width: float = 2.0    # [m] the window square around its centre
-    recentre: float = 1.0      # [m] refill when the robot's base is this far (xy) from the window centre
+    recentre: float = 1.0      # [m] refill when the robot's base is this far (along x or y) from the window centre
 
     def __post_init__(self):
         if self.slots < 1:
@@ -55,9 +55,10 @@ class TerrainWindows:
         self.overflows = 0   # refills that met more boxes than slots
 
     def stale(self, base_xy: torch.Tensor) -> torch.Tensor:
-        """Indices of the worlds whose robot (base xy [N, 2]) left the inner part of its window."""
+        """Indices of the worlds whose robot (base xy [N, 2]) is more than ``recentre`` from its window's centre
+        along x or y. A non-finite position is never stale: that world is reset (and refilled) by its owner."""
         far = (base_xy - self.window_centre).abs().amax(-1) > self.cfg.recentre
-        return far.nonzero().flatten()
+        return (far & torch.isfinite(base_xy).all(-1)).nonzero().flatten()
 
     def select(self, ids: torch.Tensor, centre_xy: torch.Tensor):
         """Boxes for the windows of worlds ``ids`` centred at ``centre_xy`` [n, 2]: centers [n, K, 3],

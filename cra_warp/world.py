@@ -257,7 +257,8 @@ class World:
         self._follow_terrain()
 
     def _follow_terrain(self):
-        """Refill the windows of the worlds whose robot moved away from its window's centre (or was reset)."""
+        """Refill the windows of the worlds whose robot moved away from its window's centre (walking, or reset
+        to another place)."""
         ids = self.windows.stale(self.root_pos[:, :2])
         if len(ids) == 0:
             return
@@ -265,7 +266,8 @@ class World:
         shapes = self._slot_shapes[ids]
         self._shape_pose[shapes] = torch.cat([centers, quats], -1)
         self._shape_scale[shapes] = half
-        self.solver.notify_model_changed(newton.ModelFlags.SHAPE_PROPERTIES)
+        self._changed |= int(newton.ModelFlags.SHAPE_PROPERTIES)
+        self.commit_physics()  # with any parameters set since: one conversion
 
     # ---------------------------------------------------------------- stepping
     def _simulate(self):

@@ -149,6 +149,8 @@ class LocoEnv(VecEnv):
             self.reset_idx(ids)
             self._refresh()  # the reset worlds' observations show their new state
         extras["log"]["/nonfinite_resets"] = float(self.nonfinite_resets)
+        if self.world.windows is not None:  # terrain boxes left out of a full window (none on our courses)
+            extras["log"]["/terrain_window_overflows"] = float(self.world.windows.overflows)
         self._resample_commands((self.command_timer <= 0).nonzero().flatten())
         self.obs = self._observations()
         return self.obs, rew, dones.long(), extras
@@ -298,14 +300,16 @@ class LocoEnv(VecEnv):
         self.command_timer[ids] = c.resample_time
 
     def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor):
-        """Command base velocities [N, 2] and world headings [N] (the yaw rate follows the heading) instead of
-        random ones; they hold until the next call (a reset robot draws random ones until then). Refreshes the
-        observation so the next action already sees them."""
+        """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
+        heading (heading mode) or is zero. They hold until the next call (a reset robot draws random ones until
+        then). Refreshes the observation so the next action already sees them."""
         self.commands[:, :2] = lin_vel_xy
         self.heading.copy_(heading)
         self.command_timer.fill_(math.inf)
         if self.cfg.commands.heading_mode:
             self._heading_control()
+        else:
+            self.commands[:, 2] = 0.0
         self.obs = self._observations()
 
     def _heading_control(self):

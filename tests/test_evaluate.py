@@ -49,8 +49,12 @@ def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
 
     far = eval_cli.evaluate(env, zero, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
     assert not far.succeeded.any() and not far.fell.any()
-    env.ground.deployment = env.ground.deployment._replace(radius=4.0)
-    near = eval_cli.evaluate(env, zero, speed=8.0)
+    dep = env.ground.deployment
+    env.ground.deployment = dep._replace(radius=4.0)
+    try:
+        near = eval_cli.evaluate(env, zero, speed=8.0)
+    finally:
+        env.ground.deployment = dep
     assert near.succeeded.all() and not near.fell.any()
 
 
@@ -83,6 +87,8 @@ def one_line_error(capsys, code, word):
     (["--agent-zero", "--kinds", "ladder"], "--kinds"),
     (["--agent-zero", "--robots-per-level", "0"], "--robots-per-level"),
     (["--agent-zero", "--speeds", "-1"], "--speeds"),
+    (["--agent-zero", "--speeds", "nan"], "--speeds"),
+    (["--agent-zero", "--json", "/nonexistent/dir/eval.json"], "no such directory"),
     (["--agent-zero", "--device", "tpu"], "--device"),
 ])
 def test_eval_rejects_bad_values(capsys, args, word):

@@ -51,6 +51,8 @@ def test_stale_worlds_are_the_ones_that_left_their_window_centre():
     assert w.stale(torch.zeros(2, 2)).tolist() == [0, 1]            # never filled
     w.select(torch.tensor([0, 1]), torch.zeros(2, 2))
     assert w.stale(torch.tensor([[0.4, 0.0], [0.0, -0.6]])).tolist() == [1]
+    # a world gone non-finite keeps its window until it is reset; the others are unaffected
+    assert w.stale(torch.tensor([[float("nan"), 0.0], [float("inf"), 9.0]])).tolist() == []
 
 
 def test_config_errors_name_the_field():

@@ -28,6 +28,8 @@ def one_line_error(capsys, code: int, *words: str):
     (["--resume", "/nonexistent/model_3.pt"], "no such file"),
     (["--epochs", "0"], "--epochs"),
     (["--mini-batches", "200"], "--mini-batches"),
+    (["--num-envs", "6", "--mini-batches", "4"], "--mini-batches"),
+    (["--contrast-weight", "nan"], "--contrast-weight"),
     (["--contrast-tau", "0"], "--contrast-tau"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
@@ -122,6 +124,10 @@ def test_learner_bench_reads_the_progress_line(capsys):
 
 def test_play_rejects_missing_checkpoint(capsys):
     one_line_error(capsys, play_cli.main(["--agent", "policy"]), "checkpoint")
+
+
+def test_play_rejects_unknown_task(capsys):
+    one_line_error(capsys, play_cli.main(["--agent", "zero", "--task", "moon"]), "--task")
 
 
 @pytest.mark.slow

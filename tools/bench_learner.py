@@ -137,6 +137,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if a.num_envs < 2 or a.num_envs % 8:
         p.error(f"--num-envs must be a multiple of 8 (8 mini-batches, 2 processes), got {a.num_envs}")
+    if a.json is not None and not a.json.parent.is_dir():
+        p.error(f"--json {a.json}: no such directory {a.json.parent}")
     if a.iterations < 2:
         p.error(f"--iterations must be >= 2 (the first is a warm-up), got {a.iterations}")
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # torchrun's children: cra-train sets its own thread count

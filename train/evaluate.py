@@ -14,6 +14,7 @@ actor's observation noise stays on. --agent-zero adds the PD stand at the refere
 from __future__ import annotations
 
 import json
+import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,7 +66,8 @@ def evaluate(env, act, speed: float) -> Tally:
     steps = trial_steps(dep, speed, env.dt)
     tally = Tally(env.num_envs, env.device)
     forward = torch.tensor([speed, 0.0], device=env.device).expand(env.num_envs, 2)
-    dones = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
+    env.reset_idx(torch.arange(env.num_envs, device=env.device))   # every robot at its start, at rest
+    dones = torch.ones(env.num_envs, dtype=torch.bool, device=env.device)  # fresh recurrent state for all
     with torch.inference_mode():
         for k in range(int(steps.max())):
             to_target = dep.target[:, :2] - env.root_pos[:, :2]
@@ -165,8 +167,10 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--kinds must be among {', '.join(EVAL_KINDS)}, got {', '.join(bad)}")
         if a.robots_per_level < 1:
             raise UsageError(f"--robots-per-level must be >= 1, got {a.robots_per_level}")
-        if not a.speeds or min(a.speeds) <= 0:
-            raise UsageError(f"--speeds must be > 0 m/s, got {a.speeds}")
+        if not a.speeds or not all(math.isfinite(v) and v > 0 for v in a.speeds):
+            raise UsageError(f"--speeds must be finite and > 0 m/s, got {a.speeds}")
+        if a.json is not None and not a.json.parent.is_dir():
+            raise UsageError(f"--json {a.json}: no such directory {a.json.parent}")
         check_device(a.device)
         records = run(a)
     except (UsageError, CheckpointError) as e:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from tyro.conf import Positional
 
-from train.train import VARIANTS, UsageError, check_device
+from train.train import TASKS, VARIANTS, UsageError, check_device
 
 
 @dataclass
@@ -45,14 +45,17 @@ def run(a: PlayArgs) -> dict:
     import torch
 
     from cra_warp.host_memory import keep_freed_memory
+    from cra_warp.world import WorldConfig
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
     keep_freed_memory()
+    overrides = {"terrain": a.task} if a.task else {}
+    if a.usd is not None:  # the viewer draws static shapes once: every world holds the whole course, not a window
+        overrides["world"] = WorldConfig(terrain_window=None)
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
         from train.runner import runner_for_checkpoint
 
-        overrides = {"terrain": a.task} if a.task else {}
         runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, seed=a.seed,
                                             **overrides)
         policy = runner.get_inference_policy(a.device)
@@ -62,8 +65,9 @@ def run(a: PlayArgs) -> dict:
 
         agent.reset = policy.reset
     else:
-        env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0],
-                                 terrain=a.task or "flat", seed=a.seed))
+        overrides.setdefault("terrain", "flat")
+        env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0], seed=a.seed,
+                                 **overrides))
         agent = make_agent(a, env)
     viewer = None
     if a.usd is not None:
@@ -107,6 +111,8 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--agent must be policy, zero or random, got {a.agent!r}")
         if a.agent == "policy" and (a.checkpoint is None or not a.checkpoint.is_file()):
             raise UsageError(f"a policy needs a checkpoint file, got {a.checkpoint}")
+        if a.task is not None and a.task not in TASKS:
+            raise UsageError(f"--task must be one of {', '.join(TASKS)}, got {a.task!r}")
         if a.variant not in VARIANTS:
             raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
         if a.num_envs < 1 or a.steps < 1:

@@ -13,6 +13,7 @@ no_contrast, fixed_cycle, clock_free. Writes TensorBoard logs, checkpoints and, 
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import random
 import sys
@@ -42,7 +43,7 @@ class TrainArgs:
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
     epochs: int = 5                    # PPO epochs per iteration (3: ~40% less update time, see tools/bench_learner.py)
-    mini_batches: int = 4              # PPO mini-batches per epoch (recurrent: each holds num_envs / mini_batches envs)
+    mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
     contrast_tau: float = 0.1          # InfoNCE temperature
     export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
@@ -66,9 +67,11 @@ def validate(a: TrainArgs) -> None:
         raise UsageError(f"--save-interval must be >= 1, got {a.save_interval}")
     if a.epochs < 1:
         raise UsageError(f"--epochs must be >= 1, got {a.epochs}")
-    if not 1 <= a.mini_batches <= a.num_envs:
-        raise UsageError(f"--mini-batches must be in 1..num_envs ({a.num_envs}), got {a.mini_batches}")
-    if a.contrast_weight < 0 or a.contrast_tau <= 0:
+    if a.mini_batches < 1 or a.num_envs % a.mini_batches:
+        raise UsageError(f"--mini-batches must divide --num-envs ({a.num_envs}): each holds whole rollouts, "
+                         f"got {a.mini_batches}")
+    finite = math.isfinite(a.contrast_weight) and math.isfinite(a.contrast_tau)
+    if not finite or a.contrast_weight < 0 or a.contrast_tau <= 0:
         raise UsageError(f"--contrast-weight must be >= 0 and --contrast-tau > 0, got {a.contrast_weight}, "
                          f"{a.contrast_tau}")
     if a.resume is not None and not a.resume.is_file():
