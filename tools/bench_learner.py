@@ -4,9 +4,9 @@
     cra-bench-learner --num-envs 256 --no-end-to-end --json levers.json
 
 Levers (free dummy env, so the learner alone is timed; one fresh process per row): torch threads, PPO epochs x
-mini-batches, rsl-rl's torch_compile_mode, the contrast variant. Each row: rollout inference (collect) and update
-seconds per iteration, the update's achieved GFLOP/s and its share of this CPU's fp32 matmul peak (measured here on
-the same threads). End to end: cra-train on the flat task, 1 process with N envs and 2 processes (torchrun, gloo)
+mini-batches, rsl-rl's torch_compile_mode, the contrast variant, the critic CNN's strides. Each row: rollout
+inference (collect) and update seconds per iteration, the update's achieved GFLOP/s and its share of this CPU's
+fp32 matmul peak (measured here on the same threads). End to end: cra-train on the flat task, 1 process with N envs and 2 processes (torchrun, gloo)
 with N/2 each, env-steps/s and collect/update seconds per iteration from the runner's progress lines.
 """
 
@@ -22,15 +22,16 @@ import tempfile
 import time
 from pathlib import Path
 
-# (threads, epochs, mini-batches, compile mode, contrast variant); the first row is the default configuration
+# (threads, epochs, mini-batches, compile mode, contrast variant, critic CNN strides); the first row is the default
 LEVERS = [
-    (2, 5, 4, None, "same_step"),
-    (1, 5, 4, None, "same_step"),
-    (2, 5, 2, None, "same_step"),
-    (2, 5, 8, None, "same_step"),
-    (2, 3, 4, None, "same_step"),
-    (2, 5, 4, "default", "same_step"),
-    (2, 5, 4, None, "none"),
+    (2, 5, 4, None, "same_step", (1, 2)),
+    (1, 5, 4, None, "same_step", (1, 2)),
+    (2, 5, 2, None, "same_step", (1, 2)),
+    (2, 5, 8, None, "same_step", (1, 2)),
+    (2, 3, 4, None, "same_step", (1, 2)),
+    (2, 5, 4, "default", "same_step", (1, 2)),
+    (2, 5, 4, None, "none", (1, 2)),
+    (2, 5, 4, None, "same_step", (2, 1)),  # downsample first: a 3.4x smaller conv activation (memory-bound here)
 ]
 PROGRESS = re.compile(r"it (\d+)/\d+ \|\s+(\d+) env-steps/s \| collect ([\d.]+)s update ([\d.]+)s")
 
@@ -58,8 +59,9 @@ def _lever_worker(spec: dict) -> dict:
     keep_freed_memory()
     cfg = LearnerConfig(torch_compile_mode=spec["compile"])
     cfg.ppo.num_learning_epochs, cfg.ppo.num_mini_batches = spec["epochs"], spec["mini_batches"]
+    cfg.critic.cnn_stride = tuple(spec["cnn_stride"])
     rec = learner_benchmark(spec["num_envs"], threads=spec["threads"], variant=spec["variant"], learner_cfg=cfg)
-    rec["compile"] = spec["compile"]
+    rec["compile"], rec["cnn_stride"] = spec["compile"], list(cfg.critic.cnn_stride)
     rec["matmul_peak_gflops"] = matmul_peak_gflops(spec["threads"])
     rec["peak_share"] = rec["update_gflops"] / rec["matmul_peak_gflops"]
     return {"kind": "lever", **rec}
@@ -67,9 +69,9 @@ def _lever_worker(spec: dict) -> dict:
 
 def levers(num_envs: int) -> list[dict]:
     out = []
-    for threads, epochs, mb, compile_mode, variant in LEVERS:
+    for threads, epochs, mb, compile_mode, variant, cnn_stride in LEVERS:
         spec = dict(num_envs=num_envs, threads=threads, epochs=epochs, mini_batches=mb, compile=compile_mode,
-                    variant=variant)
+                    variant=variant, cnn_stride=cnn_stride)
         proc = subprocess.run([sys.executable, "-m", "tools.bench_learner", "--worker", json.dumps(spec)],
                               capture_output=True, text=True)
         if proc.returncode:
@@ -83,7 +85,7 @@ def levers(num_envs: int) -> list[dict]:
 
 def _lever_name(r: dict) -> str:
     return (f"{r['threads']}t {r['epochs']}x{r['mini_batches']} compile={r['compile'] or 'off'} "
-            f"contrast={r['variant']}")
+            f"contrast={r['variant']} cnn={','.join(map(str, r.get('cnn_stride', (1, 2))))}")
 
 
 def end_to_end(num_envs: int, iterations: int, processes: int) -> dict:
@@ -111,9 +113,9 @@ def print_table(records: list[dict]) -> None:
     if lev:
         base = lev[0]["update_s"]
         print(f"\nlearner levers, N={lev[0]['num_envs']}, 24 steps per env (free dummy env)")
-        print(f"{'setting':46} {'collect s':>9} {'update s':>9} {'vs default':>10} {'GFLOP/s':>8} {'% peak':>7}")
+        print(f"{'setting':54} {'collect s':>9} {'update s':>9} {'vs default':>10} {'GFLOP/s':>8} {'% peak':>7}")
         for r in lev:
-            print(f"{_lever_name(r):46} {r['collect_s']:9.2f} {r['update_s']:9.2f} {r['update_s'] / base:10.2f} "
+            print(f"{_lever_name(r):54} {r['collect_s']:9.2f} {r['update_s']:9.2f} {r['update_s'] / base:10.2f} "
                   f"{r['update_gflops']:8.0f} {100 * r['peak_share']:7.0f}")
     e2e = [r for r in records if r["kind"] == "end_to_end"]
     if e2e:
