@@ -62,12 +62,14 @@ def _lever_worker(spec: dict) -> dict:
     cfg.critic.cnn_stride = tuple(spec["cnn_stride"])
     rec = learner_benchmark(spec["num_envs"], threads=spec["threads"], variant=spec["variant"], learner_cfg=cfg)
     rec["compile"], rec["cnn_stride"] = spec["compile"], list(cfg.critic.cnn_stride)
-    rec["matmul_peak_gflops"] = matmul_peak_gflops(spec["threads"])
-    rec["peak_share"] = rec["update_gflops"] / rec["matmul_peak_gflops"]
     return {"kind": "lever", **rec}
 
 
 def levers(num_envs: int) -> list[dict]:
+    # one peak per thread count, measured before the rows (best of 30): a peak taken per row moved with the
+    # machine's neighbours (134-180 GFLOP/s seen on 2 threads) and made the shares incomparable
+    peaks = {t: matmul_peak_gflops(t, repeats=30) for t in sorted({row[0] for row in LEVERS})}
+    print("  fp32 matmul peak: " + ", ".join(f"{p:.0f} GFLOP/s on {t} thread(s)" for t, p in peaks.items()))
     out = []
     for threads, epochs, mb, compile_mode, variant, cnn_stride in LEVERS:
         spec = dict(num_envs=num_envs, threads=threads, epochs=epochs, mini_batches=mb, compile=compile_mode,
@@ -77,6 +79,8 @@ def levers(num_envs: int) -> list[dict]:
         if proc.returncode:
             raise RuntimeError(f"lever worker {spec} failed: {proc.stderr.strip().splitlines()[-1:]}")
         rec = json.loads(proc.stdout.strip().splitlines()[-1])
+        rec["matmul_peak_gflops"] = peaks[threads]
+        rec["peak_share"] = rec["update_gflops"] / peaks[threads]
         out.append(rec)
         print(f"  {_lever_name(rec)}: collect {rec['collect_s']:.2f} s, update {rec['update_s']:.2f} s, "
               f"{rec['update_gflops']:.0f} GFLOP/s ({100 * rec['peak_share']:.0f}% of peak)", flush=True)

@@ -74,9 +74,6 @@ class CRACritic(RNNModel):
                          distribution_cfg, rnn_type, rnn_hidden_dim, rnn_num_layers)
         # conv stack -> flatten -> linear + ELU to the 32-dim u_t (the paper's size; the conv output is 896)
         self.cnn = nn.Sequential(cnn, nn.Linear(int(cnn.output_dim), cnn_latent_dim), nn.ELU())
-        # channels-last (NHWC) weights and activations: oneDNN's conv backward on the CPU then skips its layout
-        # reorders; the CNN's share of a PPO update at N=1024 fell by half (cra-bench-learner). Same math.
-        self.cnn.to(memory_format=torch.channels_last)
         self.u_t: torch.Tensor | None = None
         self.s_t: torch.Tensor | None = None
 
@@ -89,8 +86,7 @@ class CRACritic(RNNModel):
             m_c = m_c.squeeze(0)
         else:  # back to [T, B, ...] before the CNN: no convolutions on padding
             s, hmap = unpad_trajectories(s, masks), unpad_trajectories(hmap, masks)
-        hmap = hmap.flatten(0, -4).contiguous(memory_format=torch.channels_last)
-        u = self.cnn(hmap).unflatten(0, s.shape[:-1])             # [N, 32] | [T, B, 32]
+        u = self.cnn(hmap.flatten(0, -4)).unflatten(0, hmap.shape[:-3])  # [N, 32] | [T, B, 32]
         self.u_t, self.s_t = u, s.detach()
         return torch.cat([m_c, u], dim=-1)                        # z_t [.., 288]
 

@@ -138,12 +138,9 @@ class CRAPPO(PPO):
                 torch.distributed.broadcast(tensor, src=0)
 
     def reduce_parameters(self) -> None:
-        params = chain(self.actor.parameters(), self.critic.parameters(),
-                       self.heads.parameters() if self.heads is not None else ())
+        if self.heads is None:
+            return super().reduce_parameters()
+        params = chain(self.actor.parameters(), self.critic.parameters(), self.heads.parameters())
         if self.rnd:
             params = chain(params, self.rnd.parameters())
-        params = list(params)
-        for p in params:  # the critic's channels-last conv weights get channels-last gradients; rsl-rl flattens
-            if p.grad is not None and not p.grad.is_contiguous():  # each gradient with view(-1)
-                p.grad = p.grad.contiguous()
         reduce_gradients_in_buckets(params, self.gpu_world_size, self.grad_reduce_bucket_mb)
