@@ -6,8 +6,9 @@
 Levers (free dummy env, so the learner alone is timed; one fresh process per row): torch threads, PPO epochs x
 mini-batches, rsl-rl's torch_compile_mode, the contrast variant, the critic CNN's strides. Each row: rollout
 inference (collect) and update seconds per iteration, the update's achieved GFLOP/s and its share of this CPU's
-fp32 matmul peak (measured here on the same threads). End to end: cra-train on the flat task, 1 process with N envs and 2 processes (torchrun, gloo)
-with N/2 each, env-steps/s and collect/update seconds per iteration from the runner's progress lines.
+fp32 matmul peak (measured here once per thread count). End to end: cra-train on the flat task, 1 process with N
+envs and 2 processes (torchrun, gloo) with N/2 each, env-steps/s and collect/update seconds per iteration from the
+runner's progress lines.
 """
 
 from __future__ import annotations
