@@ -241,7 +241,7 @@ def box_surface(boxes: TerrainBoxes, hf: HeightField, grow: float = 1e-5) -> np.
     that much so samples lying exactly on a seam between two boxes count as covered.
     """
     top = np.zeros(hf.shape)
-    rot = quat_xyzw_to_matrix(boxes.quats) if boxes.quats is not None else np.tile(np.eye(3), (len(boxes.centers), 1, 1))
+    rot = quat_xyzw_to_matrix(boxes.quats)
     res = hf.resolution
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
     for c, half, R in zip(boxes.centers, boxes.half_extents, rot):

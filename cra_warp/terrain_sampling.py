@@ -10,8 +10,8 @@ misses: measured on this CPU at ~1M points, an int32-indexed float32 gather ~1 m
 gathers from four precomputed coefficient arrays (4x the memory) ~2x slower, one packed 16-byte gather ~7x slower;
 grid_sample (~20 ms) and a Warp CPU kernel (~16 ns per point) were slower too. All maps of one env step at N=4096
 (970k points), quiet machine, freed memory kept (cra_warp.host_memory; with glibc's defaults every temporary
-page-faults and eager takes ~45 ms): eager 19 ms on one torch thread, 14 ms on two; HeightMapConfig(compile=True)
-14 ms on one thread, 7 ms on two. Against ~3 s of Newton step at that N, the maps are < 1% of an env step.
+page-faults and eager takes ~45 ms): eager 18-19 ms on one torch thread, 14 ms on two;
+HeightMapConfig(compile=True) 9-14 ms on one thread, 4.3-7 ms on two (run to run). Against ~3 s of Newton step at that N, the maps are < 1% of an env step.
 """
 
 from __future__ import annotations

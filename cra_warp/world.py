@@ -71,7 +71,11 @@ class TerrainBoxes:
 
     centers: np.ndarray                  # [B, 3] m
     half_extents: np.ndarray             # [B, 3] m
-    quats: np.ndarray | None = None      # [B, 4] xyzw; None = axis aligned
+    quats: np.ndarray | None = None      # [B, 4] xyzw; None = axis aligned (filled with identities)
+
+    def __post_init__(self):
+        if self.quats is None:
+            self.quats = np.tile([0.0, 0.0, 0.0, 1.0], (len(self.centers), 1))
 
 
 def robot_urdf_text(robot: RobotConfig) -> str:
@@ -197,8 +201,7 @@ class World:
         builder.default_shape_cfg.mu = terrain_mu
         builder.add_ground_plane()
         if terrain is not None and not windowed:
-            quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
-            for c, h, q in zip(terrain.centers, terrain.half_extents, quats):
+            for c, h, q in zip(terrain.centers, terrain.half_extents, terrain.quats):
                 builder.add_shape_box(-1, xform=wp.transform(wp.vec3(*c), wp.quat(*q)), hx=h[0], hy=h[1], hz=h[2])
         return builder.finalize(device=cfg.device), body_names
 
@@ -247,8 +250,8 @@ class World:
 
     def _init_windows(self, terrain: TerrainBoxes):
         N, dev = self.num_envs, self.joint_q.device
-        quats = terrain.quats if terrain.quats is not None else np.tile([0.0, 0.0, 0.0, 1.0], (len(terrain.centers), 1))
-        self.windows = TerrainWindows(terrain.centers, terrain.half_extents, quats, N, self.cfg.terrain_window, dev)
+        self.windows = TerrainWindows(terrain.centers, terrain.half_extents, terrain.quats, N, self.cfg.terrain_window,
+                                      dev)
         shape_body, shape_world = self.model.shape_body.numpy(), self.model.shape_world.numpy()
         slots = np.flatnonzero((shape_body == -1) & (shape_world >= 0))
         self._slot_shapes = torch.as_tensor(slots.reshape(N, self.cfg.terrain_window.slots), device=dev)  # [N, K]

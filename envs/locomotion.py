@@ -299,10 +299,11 @@ class LocoEnv(VecEnv):
         self.heading[ids] = self._uniform(-math.pi, math.pi, n)
         self.command_timer[ids] = c.resample_time
 
-    def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor):
+    def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
         heading (heading mode) or is zero. They hold until the next call (a reset robot draws random ones until
-        then). Refreshes the observation so the next action already sees them."""
+        then). ``refresh``: recompute the observation so the next action already sees them; a caller that steers
+        every step can skip it, as step() re-applies the heading and its observation shows the command."""
         self.commands[:, :2] = lin_vel_xy
         self.heading.copy_(heading)
         self.command_timer.fill_(math.inf)
@@ -310,7 +311,8 @@ class LocoEnv(VecEnv):
             self._heading_control()
         else:
             self.commands[:, 2] = 0.0
-        self.obs = self._observations()
+        if refresh:
+            self.obs = self._observations()
 
     def _heading_control(self):
         c = self.cfg.commands

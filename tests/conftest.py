@@ -13,3 +13,12 @@ def need_shared(path: Path) -> Path:
     if not path.exists():
         pytest.skip(f"{path} not found: the reference data in ../shared is not beside this checkout")
     return path
+
+
+def one_line_error(capsys, code: int, *words: str):
+    """A CLI refused bad input: exit code 2 and one stderr line, no traceback, naming ``words``."""
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err

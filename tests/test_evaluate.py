@@ -3,6 +3,7 @@
 import pytest
 import torch
 
+from conftest import one_line_error
 from train import evaluate as eval_cli
 
 
@@ -74,11 +75,6 @@ def test_eval_terrain_needs_whole_levels():
 
     with pytest.raises(ValueError, match="LocoConfig.num_envs must be a multiple of 35"):
         LocoConfig(num_envs=36, terrain="eval")
-
-
-def one_line_error(capsys, code, word):
-    err = capsys.readouterr().err.strip()
-    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err and word in err, err
 
 
 @pytest.mark.parametrize("args, word", [

@@ -5,18 +5,11 @@ import json
 import pytest
 import torch
 
+from conftest import one_line_error
 from train import evaluate as eval_cli
 from train import export as export_cli
 from train import play as play_cli
 from train import train as train_cli
-
-
-def one_line_error(capsys, code: int, *words: str):
-    err = capsys.readouterr().err.strip()
-    assert code == 2, err
-    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    for w in words:
-        assert w in err, err
 
 
 @pytest.mark.parametrize("args, word", [

@@ -23,6 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from cra_warp.atomic_json import write_json
 from cra_warp.host_memory import keep_freed_memory
 
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
@@ -365,9 +366,7 @@ def main(argv: list[str] | None = None) -> int:
         records += learner_and_maps(args)
     print_table(records)
     if args.json:
-        tmp = args.json.with_suffix(args.json.suffix + ".tmp")
-        tmp.write_text(json.dumps(records, indent=1))
-        tmp.replace(args.json)
+        write_json(args.json, records)
         print(f"wrote {args.json}")
     return 0
 

@@ -23,6 +23,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from cra_warp.atomic_json import write_json
+
 # (threads, epochs, mini-batches, compile mode, contrast variant, critic CNN strides); the first row is the default
 LEVERS = [
     (2, 5, 4, None, "same_step", (1, 2)),
@@ -157,9 +159,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  cra-train x{procs}: {r['env_steps_per_s']:.0f} env-steps/s", flush=True)
     print_table(records)
     if a.json:
-        tmp = a.json.with_suffix(a.json.suffix + ".tmp")
-        tmp.write_text(json.dumps(records, indent=1))
-        tmp.replace(a.json)
+        write_json(a.json, records)
         print(f"wrote {a.json}")
     return 0
 

@@ -13,7 +13,6 @@ actor's observation noise stays on. --agent-zero adds the PD stand at the refere
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from dataclasses import dataclass
@@ -22,6 +21,7 @@ from pathlib import Path
 import torch
 from tyro.conf import Positional
 
+from cra_warp.atomic_json import write_json
 from train.train import UsageError, check_device
 
 ZERO = "zero"  # the name of the PD-stand baseline in reports
@@ -71,7 +71,8 @@ def evaluate(env, act, speed: float) -> Tally:
     with torch.inference_mode():
         for k in range(int(steps.max())):
             to_target = dep.target[:, :2] - env.root_pos[:, :2]
-            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]))
+            # observed once at the start; later the step's own observation shows the steered command
+            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]), refresh=k == 0)
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
             fell = dones & ~extras["time_outs"]
@@ -178,9 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     print_table(records)
     if a.json is not None:
-        tmp = a.json.with_suffix(a.json.suffix + ".tmp")
-        tmp.write_text(json.dumps(records, indent=1))
-        tmp.replace(a.json)
+        write_json(a.json, records)
         print(f"wrote {a.json}")
     return 0
 

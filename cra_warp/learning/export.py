@@ -16,12 +16,12 @@ cra_warp does not import the task: the caller passes the task metadata (see :dat
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
 from collections.abc import Mapping
 from pathlib import Path
 
 import torch
+
+from cra_warp.atomic_json import write_json
 
 # key -> what it is. "gait" may be None for a clock-free policy (no gait actions).
 REQUIRED_METADATA: dict[str, str] = {
@@ -141,7 +141,5 @@ def export_policy(policy, out_dir: str | Path, metadata: Mapping, name: str = "p
         "metadata_fields": REQUIRED_METADATA,
         **meta,
     }
-    tmp = paths["json"].with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(doc, indent=2))
-    os.replace(tmp, paths["json"])
+    write_json(paths["json"], doc, indent=2)
     return paths

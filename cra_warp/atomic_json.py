@@ -1,0 +1,14 @@
+"""Write JSON atomically (temp file + rename): a run stopped mid-write never leaves a torn file."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+
+def write_json(path: Path, obj, indent: int = 1) -> None:
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(obj, indent=indent))
+    os.replace(tmp, path)
