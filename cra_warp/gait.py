@@ -58,6 +58,13 @@ class GaitClock:
         return self.signals
 
     @property
+    def phase_obs(self) -> torch.Tensor:
+        """[N, 2] (sin, cos) of the global phase 2 pi phi / T_cycle: the clock as the policy observes it. Unlike
+        (s, c) it tells every phase apart whatever the offsets (s = -c whenever d1 = d2)."""
+        angle = 2.0 * math.pi * self.phase / self.cfg.cycle_time
+        return torch.stack([torch.sin(angle), torch.cos(angle)], -1)
+
+    @property
     def stance_mask(self) -> torch.Tensor:
         """[N, 2] bool: which foot (left, right) the clock wants on the ground."""
         return self.signals >= self.cfg.gamma

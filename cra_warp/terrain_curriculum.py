@@ -2,7 +2,8 @@
 
 Rules (batched torch on ``device``, no loop over envs):
 - promote when the robot ended its episode more than half a tile from its origin;
-- demote when it covered less than half of its commanded distance (|cmd_xy| * episode time * 0.5);
+- demote when it covered less than half of the distance its commands asked for over a whole episode (mean
+  |cmd_xy| x episode length, as legged_gym): a robot that falls early is demoted;
 - robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
 Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
 """
@@ -33,7 +34,8 @@ class TerrainCurriculum:
     def update(self, env_ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor) -> None:
         """Move envs ``env_ids`` [n] up/down a level after their episodes.
 
-        walked [n]: distance (xy, m) from the origin at episode end; commanded [n]: |cmd_xy| * episode time (m).
+        walked [n]: distance (xy, m) from the origin at episode end; commanded [n]: the distance the commands ask
+        for over a whole episode (m), whenever the episode ended.
         """
         lv = self.levels[env_ids]
         up = walked > self.promote_distance

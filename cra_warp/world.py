@@ -25,6 +25,7 @@ from newton import JointTargetMode
 from mujoco_warp import OverflowType
 from newton.sensors import SensorContact
 
+from cra_warp.rotations import quat_rotate
 from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows, WindowConfig
 from robots.robot_config import RobotConfig
 
@@ -42,6 +43,10 @@ class WorldConfig:
     contacts: Literal["feet", "all"] = "feet"  # robot shapes that collide with the terrain (never with each other)
     contact_gap: float = 0.01           # contact detection margin [m]; Newton's 0.1 default makes ~8x more contacts
     friction: float = 1.0               # robot shapes; per world with set_friction()
+    # The actuator law: an explicit PD tau = clamp(kp (q* - q) - kd qd, +-effort) at every physics step, as the
+    # robot's drives and a deploy loop run it. MuJoCo's Euler integrator evaluates the PD actuators explicitly;
+    # "implicitfast" (Newton's default) integrates their damping implicitly, a law the robot does not have.
+    integrator: Literal["euler", "implicitfast"] = "euler"
     iterations: int = 5                 # constraint solver iterations (early exit on tolerance)
     ls_iterations: int = 10
     nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
@@ -96,7 +101,8 @@ class World:
       velocity is the base CoM's), joint_pos [N, J], joint_vel [N, J], joint_target [N, J] (PD position targets),
       body_pos [N, B, 3], body_quat [N, B, 4], body_lin_vel / body_ang_vel [N, B, 3], foot_forces [N, F, 3]
       (total contact force on each foot, world frame, refreshed once per env step), base_force [N, 6] (external
-      wrench on the base CoM, world frame, applied at every substep until changed).
+      wrench on the base CoM, world frame, applied at every substep until changed), joint_torque [N, J] (the PD
+      torque applied in the last physics step, after the effort clamp).
     """
 
     def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
@@ -117,7 +123,7 @@ class World:
         nconmax, njmax = self._buffer_sizes(cfg, terrain)
         self.solver = newton.solvers.SolverMuJoCo(
             model, iterations=cfg.iterations, ls_iterations=cfg.ls_iterations, nconmax=nconmax, njmax=njmax,
-            use_mujoco_contacts=True, disable_sensors=True)
+            integrator=cfg.integrator, use_mujoco_contacts=True, disable_sensors=True)
         # Hitting the iteration cap is expected with few iterations (we measure the stand, not the residual);
         # mujoco_warp would printf a warning from inside the kernel at every step.
         self.solver.mjw_model.opt.warn_overflow &= ~int(OverflowType.ITERATIONS | OverflowType.LS_ITERATIONS)
@@ -232,6 +238,8 @@ class World:
         self.body_lin_vel, self.body_ang_vel = body_qd[..., 0:3], body_qd[..., 3:6]
         self.foot_forces = t(self._contact_sensor.total_force).view(N, len(self.robot.foot_links), 3)
         self.base_force = t(self._base_force_wp).view(N, B, 6)[:, 0]
+        # qfrc_actuator is the PD output after the joint's effort clamp (actuator_force is the unclamped request)
+        self.joint_torque = t(self.solver.mjw_data.qfrc_actuator).view(N, -1)[:, FREE_QD:]
         self.body_index = {n: i for i, n in enumerate(self._body_names)}
         # Physical parameters per world [N, ...] (randomise through the set_* methods, which keep them consistent).
         self.body_mass = t(self.model.body_mass).view(N, B)              # [N, B] kg
@@ -293,6 +301,14 @@ class World:
         else:
             self._simulate()
 
+    def com(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Whole-body centre of mass [N, 3] and its velocity [N, 3], world frame: mass-weighted link CoMs (the
+        randomised masses and base CoM offset included)."""
+        m = self.body_mass.unsqueeze(-1)                                    # [N, B, 1]
+        link_com = self.body_pos + quat_rotate(self.body_quat, self.body_com)
+        total = m.sum(1)
+        return (m * link_com).sum(1) / total, (m * self.body_lin_vel).sum(1) / total
+
     # ---------------------------------------------------------------- resets and perturbations
     def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,
               joint_qd: torch.Tensor | None = None):
@@ -326,10 +342,15 @@ class World:
         self.body_com[env_ids, 0] = self._nominal["body_com"][env_ids, 0] + offset
         self._changed |= int(newton.ModelFlags.BODY_INERTIAL_PROPERTIES)
 
-    def set_motor_strength(self, env_ids: torch.Tensor, strength: torch.Tensor):
-        """Scale PD gains and effort limits of the given worlds by ``strength`` [n, J]: torque = strength x nominal."""
-        for k in ("joint_kp", "joint_kd", "joint_effort_limit"):
-            getattr(self, k)[env_ids] = self._nominal[k][env_ids] * strength
+    def set_actuators(self, env_ids: torch.Tensor, strength: torch.Tensor, kp_scale: torch.Tensor | None = None,
+                      kd_scale: torch.Tensor | None = None):
+        """Actuators of the given worlds, each [n, J] relative to nominal: the PD gains are off by ``kp_scale`` and
+        ``kd_scale`` (None: 1), and the motor delivers ``strength`` x the PD torque (its effort limit too)."""
+        kp_scale = 1.0 if kp_scale is None else kp_scale
+        kd_scale = 1.0 if kd_scale is None else kd_scale
+        self.joint_kp[env_ids] = self._nominal["joint_kp"][env_ids] * strength * kp_scale
+        self.joint_kd[env_ids] = self._nominal["joint_kd"][env_ids] * strength * kd_scale
+        self.joint_effort_limit[env_ids] = self._nominal["joint_effort_limit"][env_ids] * strength
         self._changed |= int(newton.ModelFlags.JOINT_DOF_PROPERTIES | newton.ModelFlags.ACTUATOR_PROPERTIES)
 
     def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor):

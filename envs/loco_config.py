@@ -13,8 +13,14 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
 - Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
-- Physical randomisation (mass, CoM, motor strength, friction) is resampled per env at every reset; pushes and
-  external forces come on per-env timers during episodes.
+- Actuators: the robot's explicit PD (robots/adam_lite/config.py, cra_warp.world) at every 5 ms physics step.
+- Physical randomisation (mass, CoM, motor strength, PD gains +-20%, friction) is resampled per env at every
+  reset; pushes and external forces come on per-env timers during episodes.
+- Heading mode: the yaw-rate command is set from the heading error at the end of each step, before the
+  observation, so the command a policy observes is the one its next reward tracks.
+- Gait phase input (2 of the paper's 84): sin and cos of the global phase 2 pi phi / T_cycle. The leg signals
+  s, c add the offsets d1, d2, which the policy sees in its previous action; (s, c) themselves would not tell
+  phi from 0.5 - phi whenever d1 = d2 (always in fixed_cycle).
 - Variants: "adaptive" (ours), "fixed_cycle" (the gait actions are ignored, so the clock runs at T_cycle with
   zero offsets; the action stays 26-dim so the network is the same as ours), "clock_free" (no clock inputs and no
   gait actions: actor observation 79, action 23; the contact-pattern reward is off).
@@ -117,7 +123,9 @@ class DomainRandConfig:
     enabled: bool = True
     mass_scale: tuple[float, float] = (0.95, 1.05)        # every link, +-5%
     base_com_offset: float = 0.05                         # [m] per axis, +-5 cm
-    motor_strength: tuple[float, float] = (0.8, 1.2)      # per joint
+    motor_strength: tuple[float, float] = (0.8, 1.2)      # per joint: torque delivered / PD torque (paper)
+    kp_scale: tuple[float, float] = (0.8, 1.2)            # per joint: PD stiffness / nominal (drive calibration)
+    kd_scale: tuple[float, float] = (0.8, 1.2)            # per joint: PD damping / nominal
     friction: tuple[float, float] = (0.4, 1.25)
     push_interval: float = 8.0                            # [s]
     push_max_vel: float = 0.8                             # [m/s] horizontal speed change of a push, 0..max

@@ -11,12 +11,12 @@ from __future__ import annotations
 import math
 
 import torch
-import warp as wp
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
 from cra_warp.gait import GaitClock
 from cra_warp.kinematics import Kinematics
+from cra_warp.stand import ScriptedStand
 from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
 from cra_warp.world import World
 from envs import observations as obs_layout
@@ -45,6 +45,7 @@ class LocoEnv(VecEnv):
         self.world = World(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
+        self.stand = ScriptedStand(robot, self.device)
         d = dict(device=self.device)
 
         # constants [J] / index sets
@@ -63,9 +64,7 @@ class LocoEnv(VecEnv):
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
         self.kp = self.world.joint_kp  # [N, J] view: current (randomised) gains
-        # Joint torques of the last physics substep, [N, J] view of MuJoCo Warp's data: qfrc_actuator is the PD
-        # output after the joint's effort clamp (actuator_force is the unclamped request).
-        self.torques = wp.to_torch(self.world.solver.mjw_data.qfrc_actuator).view(N, -1)[:, -J:]
+        self.torques = self.world.joint_torque  # [N, J] view: the PD torque of the last physics step (clamped)
 
         # buffers
         z = lambda *s: torch.zeros(*s, **d)  # noqa: E731
@@ -89,6 +88,7 @@ class LocoEnv(VecEnv):
         self.nominal_mass = self.world.body_mass.sum(1).clone()
         self.mass_offset, self.com_offset = z(N), z(N, 3)
         self.motor_strength, self.friction = torch.ones(N, J, **d), torch.ones(N, **d)
+        self.kp_scale, self.kd_scale = torch.ones(N, J, **d), torch.ones(N, J, **d)
 
         self.layout = obs_layout.actor_layout(J, cfg.uses_clock)
         self.num_obs = obs_layout.size(self.layout)
@@ -103,6 +103,7 @@ class LocoEnv(VecEnv):
                                                         self.num_obs)
         self.reset_idx(torch.arange(N, device=self.device))
         self._refresh()
+        self._heading_control()
         self.obs = self._observations()
 
     # ------------------------------------------------------------------ rsl-rl VecEnv
@@ -152,8 +153,15 @@ class LocoEnv(VecEnv):
         if self.world.windows is not None:  # terrain boxes left out of a full window (none on our courses)
             extras["log"]["/terrain_window_overflows"] = float(self.world.windows.overflows)
         self._resample_commands((self.command_timer <= 0).nonzero().flatten())
+        self._heading_control()  # the yaw-rate command observed now is the one the next step's reward tracks
         self.obs = self._observations()
         return self.obs, rew, dones.long(), extras
+
+    def stand_actions(self) -> torch.Tensor:
+        """[N, A] actions of the scripted stand (cra_warp.stand) at the current state; gait actions 0."""
+        a = torch.zeros(self.num_envs, self.num_actions, device=self.device)
+        a[:, :self.robot.num_joints] = self.stand.actions(self.world, self.robot.action_scale)
+        return a
 
     # ------------------------------------------------------------------ state
     def _refresh(self):
@@ -221,7 +229,7 @@ class LocoEnv(VecEnv):
             "avg_ang_speed": (self.avg_yaw_rate * o.ang_vel_scale).unsqueeze(-1),
         }
         if self.cfg.uses_clock:
-            parts["gait_phase"] = self.clock.signals
+            parts["gait_phase"] = self.clock.phase_obs
         actor = torch.cat([parts[k] for k in self.layout], -1)
         noisy = actor
         if o.noise:
@@ -229,8 +237,7 @@ class LocoEnv(VecEnv):
             noisy = actor + unit * self.noise_scale
 
         w = self.world
-        m = w.body_mass.unsqueeze(-1)
-        com = (m * w.body_pos).sum(1) / m.sum(1)
+        com, _ = w.com()
         force = w.base_force[:, :3]
         priv = torch.cat([
             self.base_lin_vel * o.lin_vel_scale,
@@ -238,7 +245,8 @@ class LocoEnv(VecEnv):
             self.ground.foot_height_maps(self.sole_centres, self.feet_quat).flatten(1),
             self.contact.float(),
             (self.foot_forces / self.robot_weight).flatten(1),
-            self.mass_offset.unsqueeze(-1), self.com_offset, self.motor_strength, self.friction.unsqueeze(-1),
+            self.mass_offset.unsqueeze(-1), self.com_offset, self.motor_strength, self.kp_scale, self.kd_scale,
+            self.friction.unsqueeze(-1),
             force / max(self.cfg.randomization.force_max, 1.0),
             actor,
         ], -1)
@@ -254,7 +262,10 @@ class LocoEnv(VecEnv):
             return
         if self.episode_length_buf[ids].gt(0).any():
             walked = (self.root_pos[ids, :2] - self.start_xy[ids]).norm(dim=-1)
-            self.ground.update_curriculum(ids, walked, self.commanded_dist[ids])
+            # judged against the whole episode at the mean commanded speed: an early fall is a demotion
+            lived = self.episode_length_buf[ids].clamp(min=1).float() * self.dt
+            expected = self.commanded_dist[ids] / lived * self.cfg.episode_length_s
+            self.ground.update_curriculum(ids, walked, expected)
         origins = self.ground.spawn_origins(ids)  # [n, 3] ground point
         q = self.world.default_joint_q[ids].clone()
         q[:, :2] = origins[:, :2]
@@ -303,7 +314,7 @@ class LocoEnv(VecEnv):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
         heading (heading mode) or is zero. They hold until the next call (a reset robot draws random ones until
         then). ``refresh``: recompute the observation so the next action already sees them; a caller that steers
-        every step can skip it, as step() re-applies the heading and its observation shows the command."""
+        every step can skip it, as step() re-applies the heading before its observation."""
         self.commands[:, :2] = lin_vel_xy
         self.heading.copy_(heading)
         self.command_timer.fill_(math.inf)
@@ -316,15 +327,15 @@ class LocoEnv(VecEnv):
 
     def _heading_control(self):
         c = self.cfg.commands
+        if not c.heading_mode:
+            return
         err = wrap_angle(self.heading - yaw(self.world.root_quat))
         moving = self.commands[:, :2].norm(dim=-1) > 0
         self.commands[:, 2] = torch.where(moving, (c.heading_gain * err).clamp(*c.ang_vel_yaw), 0.0)
 
     def _perturb(self):
-        """Heading control, pushes and external forces on per-env timers; integrates the commanded distance."""
-        c, rd = self.cfg.commands, self.cfg.randomization
-        if c.heading_mode:
-            self._heading_control()
+        """Pushes and external forces on per-env timers; integrates the commanded distance."""
+        rd = self.cfg.randomization
         self.commanded_dist += self.commands[:, :2].norm(dim=-1) * self.dt
         if not rd.enabled:
             return
@@ -355,7 +366,9 @@ class LocoEnv(VecEnv):
         self.com_offset[ids] = self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
         self.world.set_base_com_offset(ids, self.com_offset[ids])
         self.motor_strength[ids] = self._uniform(*rd.motor_strength, n, J)
-        self.world.set_motor_strength(ids, self.motor_strength[ids])
+        self.kp_scale[ids] = self._uniform(*rd.kp_scale, n, J)
+        self.kd_scale[ids] = self._uniform(*rd.kd_scale, n, J)
+        self.world.set_actuators(ids, self.motor_strength[ids], self.kp_scale[ids], self.kd_scale[ids])
         self.friction[ids] = self._uniform(*rd.friction, n)
         self.world.set_friction(ids, self.friction[ids])
         self.world.commit_physics()

@@ -3,14 +3,14 @@
 Actor ("policy", the paper's o_t, 84 = 3+3+23+23+26+3+1+2 for Adam Lite with the clock):
     command (vx, vy, yaw rate, scaled) | projected gravity | joint positions - q_ref | joint velocities (scaled) |
     previous action | base angular velocity (scaled) | average angular speed (filtered yaw rate, scaled) |
-    gait phase (s, c)
+    gait phase (sin, cos of the global phase 2 pi phi / T_cycle; the leg offsets are in the previous action)
 Clock-free: no gait actions in the previous action and no gait phase (79 for Adam Lite).
 
 Critic "privileged" (the paper's s_t): base linear velocity (base frame, scaled) | whole-body CoM relative to the
 base (base frame) | two 5x5 foot-level height maps (left, right; heights relative to the sole) | foot contact
 states | foot contact forces (world frame, / body weight) | randomised parameters: mass offset (fraction),
-base CoM offset, motor strength per joint, friction, current external force (/ 50 N) | the actor observation
-without noise.
+base CoM offset, motor strength, PD stiffness and damping scales per joint, friction, current external force
+(/ 50 N) | the actor observation without noise.
 Critic "height_map": [N, 1, 17, 11] heights of the ground relative to the base on a yaw-aligned grid.
 """
 
@@ -38,7 +38,8 @@ def privileged_layout(num_joints: int, num_feet: int, foot_map_cells: int, actor
     return _layout([
         ("base_lin_vel", 3), ("com_pos", 3), ("foot_height_maps", num_feet * foot_map_cells),
         ("foot_contact", num_feet), ("foot_forces", 3 * num_feet), ("mass_offset", 1), ("com_offset", 3),
-        ("motor_strength", num_joints), ("friction", 1), ("external_force", 3), ("actor", actor_dim)])
+        ("motor_strength", num_joints), ("kp_scale", num_joints),
+        ("kd_scale", num_joints), ("friction", 1), ("external_force", 3), ("actor", actor_dim)])
 
 
 def size(layout: dict[str, slice]) -> int:

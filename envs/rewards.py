@@ -80,8 +80,8 @@ def feet_stumble(e: LocoEnv):          # 1{exists i: |F_xy_i| > 3 F_z_i}
     return (f[..., :2].norm(dim=-1) > 3.0 * f[..., 2].abs()).any(-1).float()
 
 
-def torques(e: LocoEnv):               # sum (tau_i / kP_i)^2
-    return sq(e.torques / e.kp)
+def torques(e: LocoEnv):               # sum (tau_i / kP_i)^2 over the joints with a stiffness (kP > 0)
+    return sq(torch.where(e.kp > 0, e.torques / e.kp.clamp(min=1e-6), 0.0))
 
 
 def joint_velocity(e: LocoEnv):        # sum q_dot_i^2

@@ -32,11 +32,16 @@ class RobotConfig:
     sole_half_size: tuple[float, float]         # sole half length (x) and half width (y) [m]
     fixed_joints: tuple[str, ...] = ()          # joints of the description held at 0: fixed in sim and kinematics
     armature: float = 0.0                       # reflected rotor inertia added to every joint [kg m^2]
+    # Gains the scripted stand emulates through its PD targets (cra_warp.stand); empty = kp / kd (a passive stand).
+    stand_kp: tuple[float, ...] = ()
+    stand_kd: tuple[float, ...] = ()
+    ankle_pitch_joints: tuple[str, ...] = ()    # the scripted stand balances the CoM over the soles through these
 
     def __post_init__(self):
         n = len(self.joint_names)
-        for f in ("default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper"):
-            if len(getattr(self, f)) != n:
+        for f in ("default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper", "stand_kp",
+                  "stand_kd"):
+            if len(getattr(self, f)) != n and not (f.startswith("stand_") and not getattr(self, f)):
                 raise ValueError(f"RobotConfig.{f} has {len(getattr(self, f))} entries, expected {n} (one per joint)")
 
     @property

@@ -22,3 +22,16 @@ def one_line_error(capsys, code: int, *words: str):
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
     for w in words:
         assert w in err, err
+
+
+def stand_steps(world, steps: int, q_ref=None, each=None):
+    """Step ``world`` under the scripted stand (the robot's ankles are too soft for a zero-action stand);
+    ``each(k)`` runs after step k."""
+    from cra_warp.stand import ScriptedStand
+
+    stand = ScriptedStand(world.robot, world.joint_pos.device)
+    for k in range(steps):
+        world.joint_target.copy_(stand.targets(world, q_ref))
+        world.step()
+        if each is not None:
+            each(k)

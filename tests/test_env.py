@@ -30,12 +30,12 @@ def test_actor_observation_layout(env):
     assert torch.allclose(o[:, L["gravity"]], torch.tensor([0.0, 0.0, -1.0]), atol=0.05)  # upright
     assert torch.allclose(o[:, L["command"]], env.commands * torch.tensor([2.0, 2.0, 0.25]))
     assert o[:, L["joint_pos"]].abs().max() < 0.2                      # near the reference pose
-    assert torch.equal(o[:, L["gait_phase"]], env.clock.signals)
+    assert torch.equal(o[:, L["gait_phase"]], env.clock.phase_obs)
     a = torch.zeros(env.num_envs, env.num_actions)
     a[:, 3], a[:, 24] = 0.2, -0.5
     obs, *_ = env.step(a)
     assert torch.equal(obs["policy"][:, L["prev_action"]], a)
-    assert obs["privileged"].shape == (env.num_envs, 179)
+    assert obs["privileged"].shape == (env.num_envs, 179 + 2 * J)  # + the PD gain scales
     assert torch.allclose(obs["privileged"][:, env.priv_layout["actor"]], obs["policy"])  # noise-free copy
     assert obs["height_map"].shape == (env.num_envs, 1, 17, 11)
     assert torch.allclose(obs["height_map"], -env.root_pos[:, 2].view(-1, 1, 1, 1).expand(-1, 1, 17, 11))
@@ -55,8 +55,13 @@ def test_randomised_parameters_in_range_and_in_the_sim(env):
     assert (env.mass_offset.abs() <= 0.05).all() and env.mass_offset.std() > 0
     assert (env.com_offset.abs() <= rd.base_com_offset).all()
     assert (env.friction >= rd.friction[0]).all() and (env.friction <= rd.friction[1]).all()
-    kp = torch.tensor(ADAM_LITE.kp)
-    assert torch.allclose(env.world.joint_kp, env.motor_strength * kp)  # what MuJoCo Warp's actuators get
+    kp, kd = torch.tensor(ADAM_LITE.kp), torch.tensor(ADAM_LITE.kd)
+    assert torch.allclose(env.world.joint_kp, env.motor_strength * env.kp_scale * kp)  # MuJoCo Warp's actuators
+    assert torch.allclose(env.world.joint_kd, env.motor_strength * env.kd_scale * kd)
+    assert env.kp_scale.min() >= rd.kp_scale[0] and env.kp_scale.max() <= rd.kp_scale[1] and env.kp_scale.std() > 0
+    P = env.priv_layout
+    priv = env.obs["privileged"]
+    assert torch.equal(priv[:, P["kp_scale"]], env.kp_scale) and torch.equal(priv[:, P["kd_scale"]], env.kd_scale)
     heavier = env.mass_offset.argmax()
     assert env.world.body_mass[heavier].sum() > env.world.body_mass[env.mass_offset.argmin()].sum()
     mj_mass = env.world.solver.mjw_model.body_mass.numpy()  # [N, bodies + world body]
@@ -107,15 +112,21 @@ def test_nan_in_one_world_resets_that_world_only(env):
     assert torch.isfinite(env.world.joint_target).all() and env.actions[5].abs().max() == 0
 
 
-def test_zero_action_rollout_keeps_most_robots_up():
-    # Nominal physics: the reference pose under PD is a stand. (With +-5 cm CoM offsets and 0.8x motors a passive
-    # stand may tip over; balancing those is the policy's job.)
-    env = LocoEnv(LocoConfig(num_envs=8, randomization=DomainRandConfig(enabled=False)))
-    fell = torch.zeros(env.num_envs, dtype=torch.bool)
-    for _ in range(200):
-        _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
-        fell |= dones.bool() & ~extras["time_outs"]
-    assert fell.float().mean() <= 0.25
+def test_scripted_stand_keeps_robots_up_where_zero_actions_fall():
+    # Nominal physics. The robot's soft ankle PD (kp 25) cannot hold the reference pose: a zero action falls within
+    # ~1.5 s; the scripted stand (cra_warp.stand) holds it through the same PD law.
+    env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False)))
+
+    def falls(agent):
+        env.reset_idx(torch.arange(env.num_envs))
+        fell = torch.zeros(env.num_envs, dtype=torch.bool)
+        for _ in range(200):
+            _, _, dones, extras = env.step(agent())
+            fell |= dones.bool() & ~extras["time_outs"]
+        return fell
+
+    assert falls(lambda: torch.zeros(env.num_envs, env.num_actions)).all()
+    assert not falls(env.stand_actions).any()
 
 
 def test_rsl_rl_runner_contract(env, tmp_path):
@@ -134,3 +145,58 @@ def test_rsl_rl_runner_contract(env, tmp_path):
     assert isinstance(env.max_episode_length, int) and env.episode_length_buf.shape == (env.num_envs,)
     env.reset_idx(torch.tensor([0]))  # buffers stay writable outside inference mode
 
+
+
+def test_privileged_com_is_the_mass_weighted_link_coms(env):
+    """Moving world 0's base CoM 5 cm forward (base frame) moves the whole-body CoM by m_base / M x 5 cm."""
+    ids = torch.tensor([0, 1])
+    env.reset_idx(ids)  # draws random physics: the offsets are set below
+    env.world.set_base_com_offset(ids, torch.zeros(2, 3))
+    env.world.commit_physics()
+    com0 = env._observations()["privileged"][:, env.priv_layout["com_pos"]]
+    env.world.set_base_com_offset(torch.tensor([0]), torch.tensor([[0.05, 0.0, 0.0]]))
+    env.world.commit_physics()
+    com1 = env._observations()["privileged"][:, env.priv_layout["com_pos"]]
+    m = env.world.body_mass[0]
+    assert com1[0, 0] - com0[0, 0] == pytest.approx(0.05 * float(m[0] / m.sum()), rel=1e-3)
+    assert torch.allclose(com1[1], com0[1])
+    assert -0.05 < com1[0, 2] < 0.25  # above the pelvis origin: the torso and arms outweigh the legs' drop
+
+
+def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
+    env = LocoEnv(LocoConfig(num_envs=8, obs=ObsConfig(noise=False)))
+    scale = env.cfg.obs.command_scale[2]
+    rewarded = []
+    rewards = env._rewards
+
+    def spy():
+        rewarded.append(env.commands[:, 2].clone())
+        return rewards()
+
+    env._rewards = spy
+    env.command_timer[:] = 0.0  # every robot draws new commands at the end of the next step
+    observed = []
+    for _ in range(3):
+        obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions))
+        observed.append(obs["policy"][:, env.layout["command"]][:, 2] / scale)
+    for seen, paid in zip(observed[:-1], rewarded[1:]):
+        assert torch.allclose(seen, paid, atol=1e-6)
+    # the freshly drawn yaw rate was replaced by the heading controller's before anyone saw it
+    from cra_warp.rotations import wrap_angle, yaw
+    c = env.cfg.commands
+    moving = env.commands[:, :2].norm(dim=-1) > 0
+    want = (c.heading_gain * wrap_angle(env.heading - yaw(env.world.root_quat))).clamp(*c.ang_vel_yaw)
+    assert torch.allclose(observed[-1], torch.where(moving, want, 0.0), atol=1e-6)
+
+
+def test_an_early_fall_is_demoted_by_the_whole_episode_distance():
+    """Walking 0.6 m in 1 s under a 1 m/s command is more than half of what that second asked, but far less than
+    half of what the 20 s episode asked: legged_gym's rule demotes it."""
+    env = LocoEnv(LocoConfig(num_envs=2, terrain="rough"))
+    cur = env.ground.curriculum
+    cur.levels[:] = 2
+    env.episode_length_buf[:] = int(1.0 / env.dt)
+    env.commanded_dist[:] = 1.0
+    env.start_xy[:] = env.root_pos[:, :2] - torch.tensor([0.6, 0.0])
+    env.reset_idx(torch.tensor([0]))
+    assert cur.levels.tolist() == [1, 2]

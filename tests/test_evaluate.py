@@ -41,19 +41,19 @@ def test_robots_spawn_at_their_starts_facing_their_targets(course_env):
 
 
 def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
-    """The PD stand (zero actions) never walks 3.75 m, and never falls on the course's flat start rims and top
-    platforms; with a target radius wider than the start-target distance every one of them succeeds."""
+    """The scripted stand never walks 3.75 m, and never falls on the course's flat start rims and top platforms;
+    with a target radius wider than the start-target distance every one of them succeeds."""
     env = course_env
 
-    def zero(obs, dones):
-        return torch.zeros(env.num_envs, env.num_actions)
+    def stand(obs, dones):
+        return env.stand_actions()
 
-    far = eval_cli.evaluate(env, zero, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
+    far = eval_cli.evaluate(env, stand, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
     assert not far.succeeded.any() and not far.fell.any()
     dep = env.ground.deployment
     env.ground.deployment = dep._replace(radius=4.0)
     try:
-        near = eval_cli.evaluate(env, zero, speed=8.0)
+        near = eval_cli.evaluate(env, stand, speed=8.0)
     finally:
         env.ground.deployment = dep
     assert near.succeeded.all() and not near.fell.any()
@@ -80,12 +80,12 @@ def test_eval_terrain_needs_whole_levels():
 @pytest.mark.parametrize("args, word", [
     ([], "nothing to evaluate"),
     (["/nonexistent/model_1.pt"], "checkpoint not found"),
-    (["--agent-zero", "--kinds", "ladder"], "--kinds"),
-    (["--agent-zero", "--robots-per-level", "0"], "--robots-per-level"),
-    (["--agent-zero", "--speeds", "-1"], "--speeds"),
-    (["--agent-zero", "--speeds", "nan"], "--speeds"),
-    (["--agent-zero", "--json", "/nonexistent/dir/eval.json"], "no such directory"),
-    (["--agent-zero", "--device", "tpu"], "--device"),
+    (["--agent-stand", "--kinds", "ladder"], "--kinds"),
+    (["--agent-stand", "--robots-per-level", "0"], "--robots-per-level"),
+    (["--agent-stand", "--speeds", "-1"], "--speeds"),
+    (["--agent-stand", "--speeds", "nan"], "--speeds"),
+    (["--agent-stand", "--json", "/nonexistent/dir/eval.json"], "no such directory"),
+    (["--agent-stand", "--device", "tpu"], "--device"),
 ])
 def test_eval_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, eval_cli.main(args), word)

@@ -85,3 +85,15 @@ def test_config_errors_name_the_field():
         GaitClockConfig(cycle_time=0)
     with pytest.raises(ValueError, match="gamma"):
         GaitClockConfig(gamma=1.5)
+
+
+def test_phase_observation_tells_phases_apart_that_the_leg_signals_do_not():
+    """With equal offsets (fixed_cycle: always) c = -s, so (s, c) at phi and at T/2 - phi are the same; the
+    policy observes (sin, cos) of the global phase instead, which differ."""
+    clock = GaitClock(2, GaitClockConfig(cycle_time=1.0))
+    clock.reset(torch.tensor([0, 1]), torch.tensor([0.1, 0.4]))
+    s = clock.signals
+    assert torch.allclose(s[0], s[1], atol=1e-6)
+    obs = clock.phase_obs
+    assert (obs[0] - obs[1]).abs().max() > 0.5
+    assert torch.allclose(obs.norm(dim=-1), torch.ones(2))

@@ -39,7 +39,9 @@ def fake_metadata(num_joints=23, obs_dim=84, clock=True):
     return {"obs_layout": layout, "joint_names": [f"j{k}" for k in range(num_joints)], "action_scale": 0.5,
             "default_q": torch.linspace(-0.3, 0.3, num_joints), "kp": [100.0] * num_joints, "kd": [2.0] * num_joints,
             "gait": {"cycle_time": 0.8, "alpha": 0.5, "psi": 0.5, "gamma": -0.1, "beta_scale": 1.0} if clock else None,
-            "control_dt": 0.02, "obs_scales": {"ang_vel": 0.25, "joint_vel": 0.05}}
+            "control_dt": 0.02, "obs_scales": {"ang_vel": 0.25, "joint_vel": 0.05},
+            "action_clip": {"joints": 10.0, "gait": 1.0}, "effort_limit": [50.0] * num_joints,
+            "pd": {"law": "tau = clip(kp (q_target - q) - kd qd, +-effort_limit)"}}
 
 
 def rollout_actions(actor, obs_seq):
@@ -310,15 +312,14 @@ def test_real_env_update_and_export(tmp_path):
     env = LocoEnv(LocoConfig(num_envs=4))
     runner, _ = make_runner(env=env, mini_batches=2)
     obs = env.get_observations()
-    assert obs["policy"].shape == (4, 84) and obs["privileged"].shape == (4, 179)
+    assert obs["policy"].shape == (4, 84) and obs["privileged"].shape == (4, 179 + 2 * 23)  # + PD gain scales
     assert obs["height_map"].shape == (4, 1, 17, 11)
     collect(runner.alg, env, STEPS)
     out = runner.alg.update()
     assert math.isfinite(out["infonce"])
-    cfg, robot = env.cfg, env.robot
-    meta = dict(obs_layout=env.layout, joint_names=robot.joint_names, action_scale=robot.action_scale,
-                default_q=robot.default_q, kp=robot.kp, kd=robot.kd, gait=cfg.gait, control_dt=env.dt,
-                obs_scales=cfg.obs)
-    paths = export_policy(runner, tmp_path, meta)
+    from train.export import deploy_metadata
+
+    robot = env.robot
+    paths = export_policy(runner, tmp_path, deploy_metadata(env))
     doc = json.loads(paths["json"].read_text())
     assert doc["obs_layout"]["gait_phase"] == [82, 84] and doc["joint_names"] == list(robot.joint_names)

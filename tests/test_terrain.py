@@ -338,8 +338,8 @@ def test_terrain_png_bad_args_one_line_exit_2(args, needle, tmp_path):
 
 # ---------------------------------------------------------------- physics: Adam Lite standing on the boxes
 # One World for all standing checks. A small terrain (4 levels of stairs, slopes and uneven ground: 5/10/15/20 cm,
-# 5/10/15/20 deg) keeps the box count, and so the build and step time, low. Robots stand under PD at the reference
-# pose; on slopes the ankle pitch targets are turned by the slope angle so the feet lie flat while the body stays
+# 5/10/15/20 deg) keeps the box count, and so the build and step time, low. Robots stand under the scripted stand
+# (cra_warp.stand) at the reference pose; on slopes the ankle pitch targets are turned by the slope angle so the feet lie flat while the body stays
 # upright (the flat-ground pose tips over on any slope: with stiff ankles the whole body leans with the feet).
 PHYS_CFG = TerrainConfig(num_levels=4, num_cols=3, proportions=(0, 1, 0, 1, 0, 1), step_height=(0.05, 0.20),
                          slope_deg=(5.0, 20.0), seed=0)
@@ -396,6 +396,7 @@ def _uneven_stance(terrain, level, side_offset):
 @pytest.fixture(scope="module")
 def stand_run():
     from cra_warp.kinematics import Kinematics
+    from cra_warp.stand import ScriptedStand
     from cra_warp.world import World, WorldConfig
     from robots.adam_lite import ADAM_LITE as R
 
@@ -429,12 +430,14 @@ def stand_run():
     boxes = terrain_boxes(terrain)
     world = World(R, WorldConfig(num_envs=len(s.rows)), boxes)
     world.reset(joint_q=torch.stack(s.rows))
-    world.joint_target.copy_(torch.stack(s.targets))
+    q_ref = torch.stack(s.targets)
+    stand = ScriptedStand(R)
     m, d = world.solver.mjw_model, world.solver.mjw_data
     rel, pen, upright, ncon, nefc = [], [], [], 0, 0
     xy0 = world.root_pos[:, :2].clone()
     slide = None
     for _ in range(int(STAND_S / world.cfg.env_dt)):
+        world.joint_target.copy_(stand.targets(world, q_ref))
         world.step()
         feet = kin.feet(world.root_pos, world.root_quat, world.joint_pos)
         ground = sampler.heights(feet.sole_centres).mean(1)

@@ -73,6 +73,7 @@ def platforms():
 
 def _stand_then_move(platforms, window):
     """World 0 stands on the low platform throughout; world 1 starts there and is reset onto the high one."""
+    from conftest import stand_steps
     from cra_warp.world import World, WorldConfig
     from robots.adam_lite import ADAM_LITE as R
 
@@ -80,14 +81,12 @@ def _stand_then_move(platforms, window):
     q = w.default_joint_q.clone()
     q[:, 2] += 0.3 + 0.01
     w.reset(joint_q=q)
-    for _ in range(25):
-        w.step()
+    stand_steps(w, 25)
     low = w.root_pos[:, 2].clone()
     q1 = w.default_joint_q[1:].clone()
     q1[:, 0], q1[:, 2] = 10.0, q1[:, 2] + 0.5 + 0.01
     w.reset(torch.tensor([1]), joint_q=q1)
-    for _ in range(50):
-        w.step()
+    stand_steps(w, 50)
     return low, w.root_pos[:, 2].clone()
 
 

@@ -72,6 +72,28 @@ def test_export_at_the_end_of_training(trained):
     assert meta["gait"]["psi"] == 0.5 and meta["action_scale"] == 0.5
 
 
+def test_deploy_json_is_complete_for_a_program_that_reads_nothing_else(trained):
+    """Clips, the PD law with its gains, limits and rate, held joints, every observation term's frame and rule,
+    and every file the exported graphs need (ONNX keeps its weights beside the graph when they are external)."""
+    from robots.adam_lite import ADAM_LITE as R
+
+    first, _ = trained
+    out = first / "exported"
+    meta = json.loads((out / "policy.json").read_text())
+    assert meta["action_clip"] == {"joints": 10.0, "gait": 1.0}
+    assert meta["kp"] == list(R.kp) and meta["kd"] == list(R.kd) and meta["effort_limit"] == list(R.effort_limit)
+    pd = meta["pd"]
+    assert "kp (q_target - q) - kd qd" in pd["law"] and pd["rate_hz"] == pytest.approx(200.0)
+    assert pd["held_joints"] == {"wristYaw_Left": 0.0, "wristYaw_Right": 0.0} and pd["armature"] == R.armature
+    assert set(meta["observation"]) == set(meta["obs_layout"]) | {"clip", "order"}
+    assert "base (pelvis) frame" in meta["observation"]["ang_vel"] and "tau 0.2 s" in meta["observation"]["avg_ang_speed"]
+    assert "sin, cos" in meta["observation"]["gait_phase"]
+    for f in meta["files"].values():
+        assert (out / f).is_file(), f
+    onnx_data = out / "policy.onnx.data"
+    assert not onnx_data.exists() or meta["files"]["onnx_data"] == onnx_data.name
+
+
 def test_export_cli(trained, tmp_path, capsys):
     first, _ = trained
     assert export_cli.main([str(first / "model_1.pt"), "--out", str(tmp_path / "dep")]) == 0
@@ -91,11 +113,11 @@ def test_play_a_trained_policy(trained, capsys):
 def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
     first, _ = trained
     out = tmp_path / "eval.json"
-    assert eval_cli.main([str(first / "model_1.pt"), "--agent-zero", "--kinds", "stairs_ascend",
+    assert eval_cli.main([str(first / "model_1.pt"), "--agent-stand", "--kinds", "stairs_ascend",
                           "--robots-per-level", "1", "--speeds", "8", "--json", str(out)]) == 0
     records = json.loads(out.read_text())
     assert len(records) == 2 * 7                     # two policies x seven step heights
-    assert {r["policy"] for r in records} == {str(first / "model_1.pt"), "zero"}
+    assert {r["policy"] for r in records} == {str(first / "model_1.pt"), "stand"}
     assert [r["difficulty"] for r in records[:7]] == pytest.approx([0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35])
     assert all(0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["fall_rate"] <= 1.0 for r in records)
     assert "stairs_ascend" in capsys.readouterr().out

@@ -4,6 +4,7 @@ import pytest
 import torch
 import warp as wp
 
+from conftest import stand_steps
 from cra_warp.world import FREE_Q, World, WorldConfig
 from robots.adam_lite import ADAM_LITE
 
@@ -31,15 +32,23 @@ def test_config_errors_name_the_field():
         WorldConfig(num_envs=0)
 
 
-def test_pd_stand_holds_5s_and_feet_carry_the_weight(world):
+def test_zero_targets_fall_and_the_scripted_stand_holds_5s_with_feet_carrying_the_weight(world):
+    """The robot's soft ankles (explicit PD, kp 25) cannot hold the reference pose passively; the scripted stand
+    holds it through the same PD, and then the feet carry the weight."""
+    world.reset()
+    for _ in range(int(3.0 / world.cfg.env_dt)):
+        world.step()
+    assert (world.root_pos[:, 2] < 0.5).all(), "a zero-action robot should fall (else the stand tests nothing)"
     world.reset()
     h0 = world.root_pos[:, 2].clone()
     heights, fz = [], []
-    for k in range(int(5.0 / world.cfg.env_dt)):
-        world.step()
+
+    def record(k):
         heights.append(world.root_pos[:, 2].clone())
         if k >= 150:  # at rest after 3 s
             fz.append(world.foot_forces[..., 2].sum(1))
+
+    stand_steps(world, int(5.0 / world.cfg.env_dt), each=record)
     heights = torch.stack(heights)
     assert (heights - h0).abs().max() < 0.02, "pelvis height moved more than 2 cm"
     weight = total_mass(world) * G
@@ -133,21 +142,18 @@ def test_randomised_parameters_reach_the_solver(world):
     ids = torch.tensor([1])
     scale = torch.full((1, world.num_bodies), 1.1)
     world.set_mass_scale(ids, scale)
-    world.set_motor_strength(torch.tensor([2]), torch.full((1, ADAM_LITE.num_joints), 0.8))
+    world.set_actuators(torch.tensor([2]), torch.full((1, ADAM_LITE.num_joints), 0.8))
     world.commit_physics()
     assert total_mass(world)[1] == pytest.approx(1.1 * total_mass(world)[0].item(), rel=1e-6)
     fz = []
-    for k in range(150):
-        world.step()
-        if k >= 100:
-            fz.append(world.foot_forces[..., 2].sum(1))
+    stand_steps(world, 150, each=lambda k: k >= 100 and fz.append(world.foot_forces[..., 2].sum(1)))
     support = torch.stack(fz).mean(0)
     assert support[1] / support[0] == pytest.approx(1.1, abs=0.03)
     knee = ADAM_LITE.joint_names.index("kneePitch_Left")
     assert world.joint_kp[2, knee] == pytest.approx(0.8 * ADAM_LITE.kp[knee])
     assert world.root_pos[2, 2] < world.root_pos[0, 2] - 0.002  # weaker motors sag further under the same load
     world.set_mass_scale(ids, torch.ones(1, world.num_bodies))
-    world.set_motor_strength(torch.tensor([2]), torch.ones(1, ADAM_LITE.num_joints))
+    world.set_actuators(torch.tensor([2]), torch.ones(1, ADAM_LITE.num_joints))
     world.commit_physics()
 
 
@@ -159,8 +165,7 @@ def test_friction_per_world(world):
     world.commit_physics()
     world.base_force[:, 0] = 60.0  # a steady horizontal shove, more than ice friction (0.05 x 575 N) holds
     start = world.body_pos[:, world.body_index["toeLeft"], 0].clone()
-    for _ in range(50):
-        world.step()
+    stand_steps(world, 50)
     slide = (world.body_pos[:, world.body_index["toeLeft"], 0] - start).abs()  # the feet slip out backwards
     world.base_force.zero_()
     world.set_friction(torch.tensor([0]), torch.tensor([1.0]))
@@ -172,8 +177,7 @@ def test_all_bodies_colliding_with_the_ground_still_stand():
     """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
     w = World(ADAM_LITE, WorldConfig(num_envs=2, contacts="all"))
     h0 = w.root_pos[:, 2].clone()
-    for _ in range(150):
-        w.step()
+    stand_steps(w, 150)
     assert (w.root_pos[:, 2] - h0).abs().max() < 0.02
     q = _airborne_state(w, torch.arange(2))
     q[:, 2] = 0.3  # pelvis 30 cm up: the legs and pelvis must rest on the ground, not pass through it
@@ -181,3 +185,28 @@ def test_all_bodies_colliding_with_the_ground_still_stand():
     for _ in range(100):
         w.step()
     assert w.body_pos[..., 2].min() > -0.05  # with contacts="feet" the same fall sinks the body ~1.1 m
+
+
+def test_applied_torque_is_the_explicit_pd_law_with_its_clamp():
+    """On random states, targets and per-world gains, the torque the rewards read (joint_torque, canonical order)
+    is kp (q* - q) - kd qd clamped at the effort limit, evaluated at the state the physics step starts from. A
+    near-zero time step keeps the state where it was set, so the law can be evaluated at the state after step()."""
+    gen = torch.Generator().manual_seed(0)
+    w = World(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False))
+    n, J = w.num_envs, ADAM_LITE.num_joints
+    ids = torch.arange(n)
+    w.set_actuators(ids, 0.8 + 0.4 * torch.rand(n, J, generator=gen), 0.8 + 0.4 * torch.rand(n, J, generator=gen),
+                    0.8 + 0.4 * torch.rand(n, J, generator=gen))
+    w.commit_physics()
+    q = w.default_joint_q.clone()
+    q[:, 2] = 3.0                                     # in the air: no contacts
+    q[:, FREE_Q:] += 0.2 * torch.randn(n, J, generator=gen)
+    qd = torch.zeros(n, 6 + J)
+    qd[:, 6:] = 2.0 * torch.randn(n, J, generator=gen)
+    w.reset(ids, joint_q=q, joint_qd=qd)
+    w.joint_target.copy_(w.joint_pos + 0.5 * torch.randn(n, J, generator=gen))  # some torques saturate
+    w.step()
+    law = w.joint_kp * (w.joint_target - w.joint_pos) - w.joint_kd * w.joint_vel
+    clamped = torch.maximum(torch.minimum(law, w.joint_effort_limit), -w.joint_effort_limit)
+    assert (law.abs() > w.joint_effort_limit).any() and (law.abs() < w.joint_effort_limit).any()
+    assert torch.allclose(w.joint_torque, clamped, rtol=1e-3, atol=1e-2)

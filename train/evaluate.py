@@ -1,14 +1,15 @@
 """cra-eval: success rates of policies on the evaluation course (paper IV-B: reach the target without falling).
 
     cra-eval runs/<run>/model_120.pt                          # one policy, 10 robots per difficulty level
-    cra-eval a/model_120.pt b/model_120.pt --agent-zero --speeds 0.3 0.6 --json eval.json
+    cra-eval a/model_120.pt b/model_120.pt --agent-stand --speeds 0.3 0.6 --json eval.json
 
 Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
 speed with its heading steered at the target. A robot succeeds when its base comes within the target radius before
 it ever falls; a fallen robot is respawned by the env but stays failed. A trial lasts twice the start-target
 distance over the speed, plus 2 s. Physical randomisation, pushes and shoves are off (the nominal robot); the
-actor's observation noise stays on. --agent-zero adds the PD stand at the reference pose as a floor.
+actor's observation noise stays on. --agent-stand adds a floor: the scripted stand (cra_warp.stand), which holds
+the reference pose and walks nowhere (the robot's soft ankles make a zero action fall).
 """
 
 from __future__ import annotations
@@ -24,13 +25,13 @@ from tyro.conf import Positional
 from cra_warp.atomic_json import write_json
 from train.train import UsageError, check_device
 
-ZERO = "zero"  # the name of the PD-stand baseline in reports
+STAND = "stand"  # the name of the scripted-stand floor in reports
 
 
 @dataclass
 class EvalArgs:
     checkpoints: Positional[tuple[Path, ...]] = ()   # cra-train checkpoints to compare (model_<it>.pt)
-    agent_zero: bool = False                         # also evaluate zero actions (the PD stand)
+    agent_stand: bool = False                        # also evaluate the scripted stand (a floor)
     speeds: tuple[float, ...] = (0.5,)               # forward commands [m/s]
     robots_per_level: int = 10
     kinds: tuple[str, ...] = ()                      # a subset of the course kinds; default all
@@ -86,9 +87,9 @@ def _policies(a: EvalArgs):
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
-    def zero(num_envs, overrides):
+    def stand(num_envs, overrides):
         env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed, **overrides))
-        return env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions, device=env.device)
+        return env, lambda obs, dones: env.stand_actions()
 
     def checkpoint(path):
         def make(num_envs, overrides):
@@ -104,7 +105,7 @@ def _policies(a: EvalArgs):
         return make
 
     out = [(str(p), checkpoint(p)) for p in a.checkpoints]
-    return out + [(ZERO, zero)] if a.agent_zero else out
+    return out + [(STAND, stand)] if a.agent_stand else out
 
 
 def run(a: EvalArgs) -> list[dict]:
@@ -158,8 +159,8 @@ def main(argv: list[str] | None = None) -> int:
 
     a = tyro.cli(EvalArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
-        if not a.checkpoints and not a.agent_zero:
-            raise UsageError("nothing to evaluate: give checkpoints and/or --agent-zero")
+        if not a.checkpoints and not a.agent_stand:
+            raise UsageError("nothing to evaluate: give checkpoints and/or --agent-stand")
         missing = [str(p) for p in a.checkpoints if not p.is_file()]
         if missing:
             raise UsageError(f"checkpoint not found: {', '.join(missing)}")

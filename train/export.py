@@ -3,8 +3,9 @@
     cra-export runs/<run>/model_40.pt                  # -> runs/<run>/exported/policy.{pt,onnx,json}
     cra-export runs/<run>/model_40.pt --out deploy/
 
-The JSON carries what a deploy program needs besides the network: observation layout and scales, joint order,
-action scale, reference pose, PD gains, gait-clock constants and the control period.
+The JSON carries what a deploy program needs besides the network: the observation (layout, each term's frame,
+scale and update rule), joint order, action clips and scale, reference pose, the PD law with its gains, effort
+limits and rate, held joints, gait-clock constants and the control period.
 """
 
 from __future__ import annotations
@@ -20,23 +21,55 @@ from train.train import UsageError
 
 
 def deploy_metadata(env) -> dict:
-    """What cra_warp.learning.export needs to know about the task (cra_warp does not import envs)."""
-    robot, cfg, o = env.robot, env.cfg, env.cfg.obs
+    """Everything a deploy program needs besides the network to rebuild the observation, the gait clock and the PD
+    loop, without reading our code (cra_warp.learning.export does not import the task, so the task says it here)."""
+    robot, cfg, o, w = env.robot, env.cfg, env.cfg.obs, env.cfg.world
+    J = robot.num_joints
+    gait = dataclasses.asdict(cfg.gait) if cfg.uses_clock else None
+    observation = {
+        "command": f"[vx, vy] [m/s] in the base's heading (yaw-only) frame, yaw rate [rad/s]; times {list(o.command_scale)}",
+        "gravity": "unit gravity direction in the base (pelvis) frame: R_base^T (0, 0, -1)",
+        "joint_pos": "q - default_q [rad], joint order",
+        "joint_vel": f"qd [rad/s] times {o.joint_vel_scale}",
+        "prev_action": "the previous action as applied (after the clips below); zeros at episode start",
+        "ang_vel": f"base angular velocity [rad/s] in the base (pelvis) frame, times {o.ang_vel_scale}",
+        "avg_ang_speed": (f"y times {o.ang_vel_scale}, y = low-passed base-frame yaw rate: after each control step "
+                          f"y += a (wz - y), a = control_dt / (tau + control_dt), tau {o.yaw_rate_filter_tau} s; "
+                          "y = 0 at episode start"),
+        "gait_phase": ("sin, cos of 2 pi phi / cycle_time; phi [s] starts at 0 and before each control step's physics "
+                       "phi = (phi + max(1 + alpha d0, 0) control_dt) mod cycle_time, with (d0, d1, d2) = beta_scale "
+                       "x the clipped gait actions of that step"),
+        "clip": o.clip,
+        "order": "obs_t is built after the physics of step t-1; a_t = policy(obs_t); then the clock advances with a_t, "
+                 "the PD targets are set and the physics runs",
+    }
     return {
         "obs_layout": env.layout,
+        "observation": {k: v for k, v in observation.items() if k in env.layout or k in ("clip", "order")},
         "joint_names": list(robot.joint_names),
         "action_scale": robot.action_scale,
+        "action_clip": {"joints": cfg.clip_joint_actions, **({"gait": 1.0} if cfg.uses_clock else {})},
         "default_q": list(robot.default_q),
         "kp": list(robot.kp),
         "kd": list(robot.kd),
-        "gait": dataclasses.asdict(cfg.gait) if cfg.uses_clock else None,
+        "effort_limit": list(robot.effort_limit),
+        "pd": {
+            "law": "tau = clip(kp (q_target - q) - kd qd, -effort_limit, effort_limit), per joint",
+            "rate_hz": 1.0 / w.sim_dt,
+            "note": ("explicit: evaluated from the measured q, qd at every physics step (trained at this rate, "
+                     "q_target held for the control period); a drive running it faster is closer still"),
+            "held_joints": {n: 0.0 for n in robot.fixed_joints},
+            "held_joints_note": "not driven by the policy: held at these angles [rad] (welded in training)",
+            "armature": robot.armature,
+            "armature_note": "rotor inertia [kg m^2] added to every driven joint in training (a sim-to-sim model "
+                             "should carry it)",
+        },
+        "gait": gait,
         "control_dt": env.dt,
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,
-                       "joint_pos": "q - default_q", "gravity": "unit vector, base frame",
-                       "avg_ang_speed": f"yaw rate low-passed with tau {o.yaw_rate_filter_tau} s, x ang_vel scale"},
+                       "yaw_rate_filter_tau": o.yaw_rate_filter_tau},
+        "frames": {"base": "the pelvis link (IMU frame)", "world": "z up", "quaternions": "xyzw in the sim"},
         "variant": cfg.variant,
-        "effort_limit": list(robot.effort_limit),
-        "armature": robot.armature,
     }
 
 

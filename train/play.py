@@ -1,7 +1,7 @@
 """cra-play: run a policy (or a zero / random agent) in the locomotion task and report how it walks.
 
     cra-play runs/<run>/model_40.pt                 # the trained policy, deterministic actions
-    cra-play --agent zero --num-envs 16             # no policy: the PD stand at the reference pose
+    cra-play --agent stand --num-envs 16            # no policy: the scripted stand at the reference pose
     cra-play runs/<run>/model_40.pt --usd rollout.usda   # also write an animated USD (any USD viewer plays it)
 
 Reports the velocity tracking error, falls per robot-minute and the distance walked.
@@ -21,9 +21,9 @@ from train.train import TASKS, VARIANTS, UsageError, check_device
 @dataclass
 class PlayArgs:
     checkpoint: Positional[Path | None] = None  # a cra-train checkpoint (model_<it>.pt); for --agent policy
-    agent: str = "policy"              # policy | zero | random
+    agent: str = "policy"              # policy | stand | zero | random
     task: str | None = None            # flat | rough; default: the checkpoint's task (flat for zero/random)
-    variant: str = "ours"              # zero/random agents only: a policy brings its own
+    variant: str = "ours"              # stand/zero/random agents only: a policy brings its own
     num_envs: int = 16
     steps: int = 500                   # env steps (0.02 s each)
     device: str = "cpu"
@@ -34,6 +34,8 @@ class PlayArgs:
 def make_agent(a: PlayArgs, env):
     import torch
 
+    if a.agent == "stand":
+        return lambda obs: env.stand_actions()
     if a.agent == "zero":
         return lambda obs: torch.zeros(env.num_envs, env.num_actions, device=env.device)
     if a.agent == "random":
@@ -107,8 +109,8 @@ def main(argv: list[str] | None = None) -> int:
 
     a = tyro.cli(PlayArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
-        if a.agent not in ("policy", "zero", "random"):
-            raise UsageError(f"--agent must be policy, zero or random, got {a.agent!r}")
+        if a.agent not in ("policy", "stand", "zero", "random"):
+            raise UsageError(f"--agent must be policy, stand, zero or random, got {a.agent!r}")
         if a.agent == "policy" and (a.checkpoint is None or not a.checkpoint.is_file()):
             raise UsageError(f"a policy needs a checkpoint file, got {a.checkpoint}")
         if a.task is not None and a.task not in TASKS:

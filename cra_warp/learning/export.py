@@ -34,6 +34,9 @@ REQUIRED_METADATA: dict[str, str] = {
     "gait": "gait clock constants {cycle_time, alpha, psi, gamma, beta_scale}; actions[J:J+3] = (d0, d1, d2) raw",
     "control_dt": "policy period [s]",
     "obs_scales": "scales applied to the observation terms before they enter the policy",
+    "action_clip": "actions are clipped to +-these before use: {joints, gait}",
+    "effort_limit": "drive torque limits [N m], joint order",
+    "pd": "the PD law the drives run, its rate, held joints and the simulated rotor inertia",
 }
 GAIT_KEYS = ("cycle_time", "alpha", "psi", "gamma", "beta_scale")
 
@@ -65,7 +68,7 @@ def _check_metadata(meta: dict, obs_dim: int, action_dim: int) -> None:
     if size != obs_dim:
         raise ValueError(f"export metadata: obs_layout covers {size} entries but the policy takes {obs_dim}")
     j = len(meta["joint_names"])
-    for k in ("default_q", "kp", "kd"):
+    for k in ("default_q", "kp", "kd", "effort_limit"):
         if len(meta[k]) != j:
             raise ValueError(f"export metadata: {k} has {len(meta[k])} entries for {j} joints")
     if action_dim not in (j, j + 3):
@@ -116,6 +119,10 @@ def export_policy(policy, out_dir: str | Path, metadata: Mapping, name: str = "p
             torch.onnx.export(m, m.get_dummy_inputs(), str(paths["onnx"]), export_params=True, opset_version=18,
                               input_names=m.input_names, output_names=m.output_names)
     actor.train(was_training)
+    if onnx:  # large ONNX graphs keep their weights in a side file the .onnx names: ship it with the graph
+        data = out / f"{paths['onnx'].name}.data"
+        if data.is_file():
+            paths["onnx_data"] = data
 
     recurrent = bool(getattr(actor, "is_recurrent", False))
     net = {"obs_dim": obs_dim, "action_dim": action_dim, "recurrent": recurrent,

@@ -3,12 +3,13 @@
 Canonical order = the vendor's motor order (URDF order without the wristYaw joints): left leg, right leg,
 waist (roll, pitch, yaw), left arm, right arm. Limits come from our description (URDF figures).
 
-PD gains. The vendor's RL gains (ankle pitch kp 25) do not hold a passive PD stand: the CoM is ~3.6 cm ahead
-of the ankle axis and the robot falls in ~1.2 s (../shared/docs/FACTS.md). We use one set of gains for the sim,
-for training and for the passive-stand tests: the vendor's (pnd_rl_gym lite_run) everywhere except hip pitch,
-knee and ankle pitch, which are raised to the values measured to hold a 5 s stand (610/6, 610/6, 500/10), and
-ankle roll, which the vendor leaves undriven (kp 0) and we drive softly (40/1) so that a zero action is a stand.
-A policy trained with these gains must be deployed with them (the export JSON carries them).
+PD gains: the vendor's 23-joint real-robot set (pnd_rl_gym lite_run), run as the robot runs them: an explicit PD
+tau = clamp(kp (q* - q) - kd qd, +-effort) evaluated at every physics step (cra_warp.world: MuJoCo's Euler
+integrator, no implicit damping). Ankle roll has kp 0 on the robot (the parallel ankle is not driven in roll): the
+foot rolls freely with a little damping. With ankle pitch at kp 25 a zero action is no longer a stand (the CoM is
+~3.6 cm ahead of the ankle: FACTS.md); balancing is the policy's job. Tests and the evaluation floor use a scripted
+stand instead (cra_warp.stand), which emulates the stiffer gains below through its PD targets at the policy rate:
+hip pitch, knee and ankle pitch 610/6, 610/6, 500/10, the gains that held a passive 5 s stand under implicit PD.
 
 wristYaw joints are in the description (25 revolute joints) but not driven by the policy: the vendor's deploy stack
 holds them at 0, so the simulator and the kinematics weld them at 0 (fixed joints). That keeps the 23 driven joints
@@ -32,13 +33,17 @@ JOINT_NAMES = (
 #            hipP   hipR  hipY  knee  ankP   ankR
 _LEG_Q_L = (-0.32, 0.0, -0.18, 0.66, -0.39, 0.0)
 _LEG_Q_R = (-0.32, 0.0, 0.18, 0.66, -0.39, 0.0)
-_LEG_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 40.0)
-_LEG_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 1.0)
+_LEG_KP = (305.0, 700.0, 405.0, 305.0, 25.0, 0.0)
+_LEG_KD = (6.1, 30.0, 6.1, 6.1, 2.5, 0.35)
+_LEG_STAND_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 0.0)
+_LEG_STAND_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 0.35)
 #            shP   shR   shY   elbow
 _ARM_Q_L = (0.0, 0.1, 0.0, -0.3)
 _ARM_Q_R = (0.0, -0.1, 0.0, -0.3)
 _ARM_KP = (18.0, 9.0, 9.0, 9.0)
 _ARM_KD = (0.9, 0.9, 0.9, 0.9)
+_WAIST_KP = (405.0, 405.0, 205.0)   # roll, pitch, yaw
+_WAIST_KD = (6.1, 6.1, 4.1)
 
 ADAM_LITE = RobotConfig(
     name="adam_lite",
@@ -47,8 +52,10 @@ ADAM_LITE = RobotConfig(
     foot_links=("toeLeft", "toeRight"),
     joint_names=JOINT_NAMES,
     default_q=(*_LEG_Q_L, *_LEG_Q_R, 0.0, 0.0, 0.0, *_ARM_Q_L, *_ARM_Q_R),
-    kp=(*_LEG_KP, *_LEG_KP, 405.0, 405.0, 205.0, *_ARM_KP, *_ARM_KP),
-    kd=(*_LEG_KD, *_LEG_KD, 6.1, 6.1, 4.1, *_ARM_KD, *_ARM_KD),
+    kp=(*_LEG_KP, *_LEG_KP, *_WAIST_KP, *_ARM_KP, *_ARM_KP),
+    kd=(*_LEG_KD, *_LEG_KD, *_WAIST_KD, *_ARM_KD, *_ARM_KD),
+    stand_kp=(*_LEG_STAND_KP, *_LEG_STAND_KP, *_WAIST_KP, *_ARM_KP, *_ARM_KP),
+    stand_kd=(*_LEG_STAND_KD, *_LEG_STAND_KD, *_WAIST_KD, *_ARM_KD, *_ARM_KD),
     effort_limit=tuple(JOINT_BY_NAME[n].effort for n in JOINT_NAMES),
     velocity_limit=tuple(JOINT_BY_NAME[n].velocity for n in JOINT_NAMES),
     pos_lower=tuple(JOINT_BY_NAME[n].limits[0] for n in JOINT_NAMES),
@@ -58,8 +65,10 @@ ADAM_LITE = RobotConfig(
     sole_offset=(SOLE.xyz[0], SOLE.xyz[1], SOLE.xyz[2] - SOLE.size[2] / 2),
     sole_half_size=(SOLE.size[0] / 2, SOLE.size[1] / 2),
     fixed_joints=("wristYaw_Left", "wristYaw_Right"),
-    # The vendor files carry no rotor inertia (but 0.001 on ankle pitch). Without it the stiff ankle PD chatters
-    # against the ground at dt 0.005 and the feet creep apart until the robot falls, in MuJoCo C and in Newton
-    # alike; 0.01 kg m^2 (small next to the QDD rotors' reflected inertia) holds a 10 s stand.
+    ankle_pitch_joints=("anklePitch_Left", "anklePitch_Right"),
+    # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
+    # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
+    # ankle pitch kd dt / I = 2.5 x 0.005 / (0.0043 + 0.01) = 0.9 with it, 2.9 without (explicit damping diverges
+    # above 2). The deploy JSON carries it.
     armature=0.01,
 )
