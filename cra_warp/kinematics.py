@@ -30,7 +30,7 @@ import pytorch_kinematics as pk
 import torch
 from pytorch_kinematics.transforms import matrix_to_quaternion, quaternion_to_matrix, wxyz_to_xyzw, xyzw_to_wxyz
 
-from cra_warp.world import robot_urdf_text
+from robots.robot_config import robot_urdf_text
 from robots.robot_config import RobotConfig
 
 

@@ -24,7 +24,7 @@ import math
 import numpy as np
 
 from cra_warp.terrain import HeightField, Terrain, Tile
-from cra_warp.world import TerrainBoxes
+from cra_warp.sim import TerrainBoxes
 
 SLOPE_BOX_THICKNESS = 0.3  # [m] rotated slabs: far more than a foot can sink, thin enough to stay under the rim
 MAX_RIDGE_SPLITS = 5

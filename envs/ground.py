@@ -20,7 +20,7 @@ from cra_warp.terrain_boxes import terrain_boxes
 from cra_warp.terrain_course import Deployment, EvalCourse, EvalCourseConfig
 from cra_warp.terrain_curriculum import TerrainCurriculum
 from cra_warp.terrain_sampling import HeightSampler
-from cra_warp.world import TerrainBoxes
+from cra_warp.sim import TerrainBoxes
 
 GROUND_KINDS = ("flat", "rough", "eval")
 

@@ -13,7 +13,7 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
 - Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
-- Actuators: the robot's explicit PD (robots/adam_lite/config.py, cra_warp.world) at every 5 ms physics step.
+- Actuators: the robot's explicit PD (robots/adam_lite/config.py, cra_warp.sim) at every 5 ms physics step.
 - Physical randomisation (mass, CoM, motor strength, PD gains +-20%, friction) is resampled per env at every
   reset; pushes and external forces come on per-env timers during episodes.
 - Heading mode: the yaw-rate command is set from the heading error at the end of each step, before the
@@ -33,7 +33,7 @@ from typing import Literal
 
 from cra_warp.gait import GaitClockConfig
 from cra_warp.terrain_course import EvalCourseConfig
-from cra_warp.world import WorldConfig
+from cra_warp.sim import WorldConfig
 
 Variant = Literal["adaptive", "fixed_cycle", "clock_free"]
 VARIANTS: tuple[str, ...] = ("adaptive", "fixed_cycle", "clock_free")

@@ -18,7 +18,7 @@ from cra_warp.gait import GaitClock
 from cra_warp.kinematics import Kinematics
 from cra_warp.stand import ScriptedStand
 from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
-from cra_warp.world import World
+from cra_warp.sim import make_world
 from envs import observations as obs_layout
 from envs.ground import Ground
 from envs.loco_config import LocoConfig
@@ -42,7 +42,7 @@ class LocoEnv(VecEnv):
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
 
         self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course)
-        self.world = World(robot, cfg.world, self.ground.boxes)
+        self.world = make_world(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
         self.stand = ScriptedStand(robot, self.device)

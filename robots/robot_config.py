@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -47,3 +48,13 @@ class RobotConfig:
     @property
     def num_joints(self) -> int:
         return len(self.joint_names)
+
+
+def robot_urdf_text(robot: RobotConfig) -> str:
+    """The robot's URDF as the simulator and kinematics load it: joints the policy does not drive become fixed."""
+    text = robot.urdf_path.read_text()
+    for name in robot.fixed_joints:
+        text, n = re.subn(rf'(<joint name="{name}" type=")\w+(")', r"\1fixed\2", text)
+        if n != 1:
+            raise ValueError(f"{robot.urdf_path.name}: joint {name!r} listed in fixed_joints is not in the URDF")
+    return text

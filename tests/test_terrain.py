@@ -397,7 +397,7 @@ def _uneven_stance(terrain, level, side_offset):
 def stand_run():
     from cra_warp.kinematics import Kinematics
     from cra_warp.stand import ScriptedStand
-    from cra_warp.world import World, WorldConfig
+    from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE as R
 
     terrain = generate_terrain(PHYS_CFG)
@@ -428,7 +428,7 @@ def stand_run():
           (t.centre[0] + (t.half_inner + t.half_platform) / 2, t.centre[1] + 0.8), math.pi)
 
     boxes = terrain_boxes(terrain)
-    world = World(R, WorldConfig(num_envs=len(s.rows)), boxes)
+    world = make_world(R, WorldConfig(num_envs=len(s.rows)), boxes)
     world.reset(joint_q=torch.stack(s.rows))
     q_ref = torch.stack(s.targets)
     stand = ScriptedStand(R)

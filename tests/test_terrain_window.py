@@ -65,7 +65,7 @@ def test_config_errors_name_the_field():
 @pytest.fixture(scope="module")
 def platforms():
     """Two platforms 10 m apart (tops 0.3 m and 0.5 m); windows of 4 slots, 1.5 m half-width."""
-    from cra_warp.world import TerrainBoxes
+    from cra_warp.sim import TerrainBoxes
 
     return TerrainBoxes(np.array([[0.0, 0.0, 0.15], [10.0, 0.0, 0.25]]), np.array([[1.0, 1.0, 0.15],
                                                                                     [1.0, 1.0, 0.25]]))
@@ -74,10 +74,10 @@ def platforms():
 def _stand_then_move(platforms, window):
     """World 0 stands on the low platform throughout; world 1 starts there and is reset onto the high one."""
     from conftest import stand_steps
-    from cra_warp.world import World, WorldConfig
+    from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE as R
 
-    w = World(R, WorldConfig(num_envs=2, terrain_window=window), platforms)
+    w = make_world(R, WorldConfig(num_envs=2, terrain_window=window), platforms)
     q = w.default_joint_q.clone()
     q[:, 2] += 0.3 + 0.01
     w.reset(joint_q=q)

@@ -5,7 +5,7 @@ import torch
 import warp as wp
 
 from conftest import stand_steps
-from cra_warp.world import FREE_Q, World, WorldConfig
+from cra_warp.sim import FREE_Q, World, WorldConfig, make_world
 from robots.adam_lite import ADAM_LITE
 
 G = 9.81
@@ -13,7 +13,7 @@ G = 9.81
 
 @pytest.fixture(scope="module")
 def world():
-    return World(ADAM_LITE, WorldConfig(num_envs=4))
+    return make_world(ADAM_LITE, WorldConfig(num_envs=4))
 
 
 def total_mass(w: World) -> torch.Tensor:
@@ -126,7 +126,7 @@ def _rollout(w: World, reset_ids=None) -> torch.Tensor:
 
 def test_reset_of_a_subset_leaves_others_bitwise_untouched(world):
     plain = _rollout(world)
-    other = World(ADAM_LITE, WorldConfig(num_envs=4))
+    other = make_world(ADAM_LITE, WorldConfig(num_envs=4))
     with_reset = _rollout(other, reset_ids=torch.tensor([1, 3]))
     assert torch.equal(plain[[0, 2]], with_reset[[0, 2]])
     assert not torch.equal(plain[[1, 3]], with_reset[[1, 3]])
@@ -175,7 +175,7 @@ def test_friction_per_world(world):
 
 def test_all_bodies_colliding_with_the_ground_still_stand():
     """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
-    w = World(ADAM_LITE, WorldConfig(num_envs=2, contacts="all"))
+    w = make_world(ADAM_LITE, WorldConfig(num_envs=2, contacts="all"))
     h0 = w.root_pos[:, 2].clone()
     stand_steps(w, 150)
     assert (w.root_pos[:, 2] - h0).abs().max() < 0.02
@@ -192,7 +192,7 @@ def test_applied_torque_is_the_explicit_pd_law_with_its_clamp():
     is kp (q* - q) - kd qd clamped at the effort limit, evaluated at the state the physics step starts from. A
     near-zero time step keeps the state where it was set, so the law can be evaluated at the state after step()."""
     gen = torch.Generator().manual_seed(0)
-    w = World(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False))
+    w = make_world(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False))
     n, J = w.num_envs, ADAM_LITE.num_joints
     ids = torch.arange(n)
     w.set_actuators(ids, 0.8 + 0.4 * torch.rand(n, J, generator=gen), 0.8 + 0.4 * torch.rand(n, J, generator=gen),

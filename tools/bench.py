@@ -39,7 +39,7 @@ def stairs():
     """
     import numpy as np
 
-    from cra_warp.world import TerrainBoxes
+    from cra_warp.sim import TerrainBoxes
 
     rise, tread, width, n = 0.15, 0.3, 2.0, 10
     k = np.arange(1, n + 1)
@@ -70,7 +70,7 @@ def _peak_rss_mb() -> float:
 def _newton_worker(spec: dict) -> dict:
     import torch
 
-    from cra_warp.world import World, WorldConfig
+    from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE
 
     n = spec["num_envs"]
@@ -82,7 +82,7 @@ def _newton_worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     # stairs: shared boxes, the very model MuJoCo C runs; rough: per-world windows of the course, as training does
     window = {} if spec["terrain"] == "rough" else {"terrain_window": None}
-    world = World(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], **window), terrain)
+    world = make_world(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], **window), terrain)
     q = world.default_joint_q.clone()
     q[:, :3] += origins.to(q.device)
     world.default_joint_q.copy_(q)
@@ -225,7 +225,7 @@ def export_mjcf(terrain: str, path: str) -> None:
     """Write the MJCF that SolverMuJoCo builds for a one-robot world with the benchmark's options."""
     import newton
 
-    from cra_warp.world import World, WorldConfig
+    from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE
 
     init = newton.solvers.SolverMuJoCo.__init__
@@ -235,7 +235,7 @@ def export_mjcf(terrain: str, path: str) -> None:
 
     newton.solvers.SolverMuJoCo.__init__ = with_export
     try:
-        World(ADAM_LITE, WorldConfig(num_envs=1, capture=False, terrain_window=None),
+        make_world(ADAM_LITE, WorldConfig(num_envs=1, capture=False, terrain_window=None),
               stairs()[0] if terrain == "stairs" else None)
     finally:
         newton.solvers.SolverMuJoCo.__init__ = init

@@ -23,7 +23,7 @@ import torch
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.train import UsageError, check_device
+from train.train import UsageError, check_device, check_sim, world_config
 
 STAND = "stand"  # the name of the scripted-stand floor in reports
 
@@ -36,6 +36,7 @@ class EvalArgs:
     robots_per_level: int = 10
     kinds: tuple[str, ...] = ()                      # a subset of the course kinds; default all
     device: str = "cpu"
+    sim: str | None = None                           # newton | mujoco; default: each checkpoint's (newton: stand)
     seed: int = 0
     json: Path | None = None                         # write the records (one per policy, speed, kind, level)
 
@@ -122,6 +123,8 @@ def run(a: EvalArgs) -> list[dict]:
             torch.manual_seed(a.seed)
             overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
                              episode_length_s=1e6)  # no time-outs: the trial clock is the evaluator's
+            if a.sim is not None:
+                overrides["world"] = world_config(a.sim)
             env, act = make(num_envs, overrides)
             tally = evaluate(env, act, speed)
             c, dep = env.ground.course, env.ground.deployment
@@ -173,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--speeds must be finite and > 0 m/s, got {a.speeds}")
         if a.json is not None and not a.json.parent.is_dir():
             raise UsageError(f"--json {a.json}: no such directory {a.json.parent}")
+        check_sim(a.sim, a.device)
         check_device(a.device)
         records = run(a)
     except (UsageError, CheckpointError) as e:

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from tyro.conf import Positional
 
-from train.train import TASKS, VARIANTS, UsageError, check_device
+from train.train import TASKS, VARIANTS, UsageError, check_device, check_sim, world_config
 
 
 @dataclass
@@ -27,6 +27,7 @@ class PlayArgs:
     num_envs: int = 16
     steps: int = 500                   # env steps (0.02 s each)
     device: str = "cpu"
+    sim: str | None = None             # newton | mujoco; default: the checkpoint's (newton for stand/zero/random)
     usd: Path | None = None            # write the rollout as an animated USD stage here
     seed: int = 0
 
@@ -47,7 +48,7 @@ def run(a: PlayArgs) -> dict:
     import torch
 
     from cra_warp.host_memory import keep_freed_memory
-    from cra_warp.world import WorldConfig
+    from cra_warp.sim import WorldConfig
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
@@ -55,6 +56,8 @@ def run(a: PlayArgs) -> dict:
     overrides = {"terrain": a.task} if a.task else {}
     if a.usd is not None:  # the viewer draws static shapes once: every world holds the whole course, not a window
         overrides["world"] = WorldConfig(terrain_window=None)
+    elif a.sim is not None:
+        overrides["world"] = world_config(a.sim)
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
         from train.runner import runner_for_checkpoint
 
@@ -73,10 +76,7 @@ def run(a: PlayArgs) -> dict:
         agent = make_agent(a, env)
     viewer = None
     if a.usd is not None:
-        import newton.viewer
-
-        viewer = newton.viewer.ViewerUSD(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
-        viewer.set_model(env.world.model)
+        viewer = env.world.usd_recorder(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
     obs = env.get_observations()
     falls, sq_err, dist = 0, torch.zeros(env.num_envs, device=env.device), torch.zeros(env.num_envs, device=env.device)
     with torch.inference_mode():
@@ -91,9 +91,7 @@ def run(a: PlayArgs) -> dict:
             dist += torch.where(dones.bool(), 0.0, moved)  # a reset teleports the robot: not walked
             falls += int((dones.bool() & ~extras["time_outs"]).sum())
             if viewer is not None:
-                viewer.begin_frame(k * env.dt)
-                viewer.log_state(env.world.state_0)
-                viewer.end_frame()
+                viewer.frame(k * env.dt)
     if viewer is not None:
         viewer.close()
     minutes = a.steps * env.dt / 60 * env.num_envs
@@ -119,6 +117,9 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
         if a.num_envs < 1 or a.steps < 1:
             raise UsageError(f"--num-envs and --steps must be >= 1, got {a.num_envs}, {a.steps}")
+        check_sim(a.sim, a.device)
+        if a.usd is not None and a.sim == "mujoco":
+            raise UsageError("--usd records Newton's state: use --sim newton")
         check_device(a.device)
         report = run(a)
     except (UsageError, CheckpointError) as e:

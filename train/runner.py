@@ -97,6 +97,10 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_ov
     if variant not in VARIANTS:
         raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
     env_variant, contrast = VARIANTS[variant]
+    if "world" not in env_overrides:  # the simulator it was trained in, unless the caller chose one
+        from train.train import world_config
+
+        env_overrides["world"] = world_config(info.get("sim", "newton"))
     env = LocoEnv(LocoConfig(num_envs=num_envs, device=device, variant=env_variant,
                              terrain=env_overrides.pop("terrain", task), **env_overrides))
     learner = LearnerConfig()

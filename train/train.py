@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 TASKS = ("flat", "rough")
+SIMS = ("newton", "mujoco")
 VARIANTS = {  # variant -> (env variant, contrast variant)
     "ours": ("adaptive", "same_step"),
     "sequential": ("adaptive", "sequential"),
@@ -37,6 +38,7 @@ class TrainArgs:
     variant: str = "ours"              # ours | sequential | no_contrast | fixed_cycle | clock_free
     num_envs: int = 128                # parallel robots (per process with torchrun)
     device: str = "cpu"                # cpu | cuda:N
+    sim: str = "newton"                # newton (CPU or CUDA) | mujoco (MuJoCo C, CPU: the fast CPU path)
     max_iterations: int = 120          # learning iterations (24 env steps per env each): ~10 min on 2 CPU cores
     seed: int = 1
     resume: Path | None = None         # checkpoint to continue from (iteration count and optimizer state)
@@ -76,7 +78,22 @@ def validate(a: TrainArgs) -> None:
                          f"{a.contrast_tau}")
     if a.resume is not None and not a.resume.is_file():
         raise UsageError(f"--resume {a.resume}: no such file")
+    check_sim(a.sim, a.device)
     check_device(a.device)
+
+
+def check_sim(sim: str | None, device: str) -> None:
+    if sim is not None and sim not in SIMS:
+        raise UsageError(f"--sim must be one of {', '.join(SIMS)}, got {sim!r}")
+    if sim == "mujoco" and device != "cpu":
+        raise UsageError(f"--sim mujoco runs on the CPU only (use --device cpu or --sim newton), got --device {device}")
+
+
+def world_config(sim: str, **kw):
+    """The WorldConfig of a --sim choice."""
+    from cra_warp.sim import WorldConfig
+
+    return WorldConfig(backend=sim, **kw)
 
 
 def check_device(device: str) -> None:
@@ -114,14 +131,15 @@ def run(a: TrainArgs):
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
     env_variant, contrast = VARIANTS[a.variant]
     env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
-                             seed=a.seed + rank))
+                             seed=a.seed + rank, world=world_config(a.sim)))
     learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
                                            tau=a.contrast_tau)
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches)
     run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
-                       quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed})
+                       quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
+                                                          "sim": a.sim})
     if a.resume is not None:
         load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it

@@ -4,7 +4,7 @@ Canonical order = the vendor's motor order (URDF order without the wristYaw join
 waist (roll, pitch, yaw), left arm, right arm. Limits come from our description (URDF figures).
 
 PD gains: the vendor's 23-joint real-robot set (pnd_rl_gym lite_run), run as the robot runs them: an explicit PD
-tau = clamp(kp (q* - q) - kd qd, +-effort) evaluated at every physics step (cra_warp.world: MuJoCo's Euler
+tau = clamp(kp (q* - q) - kd qd, +-effort) evaluated at every physics step (cra_warp.sim: MuJoCo's Euler
 integrator, no implicit damping). Ankle roll has kp 0 on the robot (the parallel ankle is not driven in roll): the
 foot rolls freely with a little damping. With ankle pitch at kp 25 a zero action is no longer a stand (the CoM is
 ~3.6 cm ahead of the ankle: FACTS.md); balancing is the policy's job. Tests and the evaluation floor use a scripted

@@ -1,17 +1,13 @@
-"""N copies of a robot plus static terrain in one Newton model, stepped by SolverMuJoCo under one captured graph.
+"""The Newton backend: N copies of a robot plus static terrain in one Newton model, stepped by SolverMuJoCo
+(mujoco_warp) under one captured graph, on the CPU or CUDA.
 
-The task layer sees the simulator only through this small tensor interface (DESIGN.md):
-views (zero-copy torch tensors of the sim's own arrays), ``step()``, ``reset()``, external forces, impulses.
-Every view aliases Warp memory: writing into ``joint_target`` or ``joint_qd`` reaches the solver, and the sim's
-updates are visible in the views without copies. Nothing here loops over worlds in Python.
-
-Conventions at this boundary: positions in metres, world frame z up; quaternions xyzw (Newton's); body twists
-(linear velocity of the CoM, angular velocity) in the world frame; driven joints in the robot config's order.
+It implements the interface of cra_warp.sim.config.World. Every view aliases Warp memory: writing into
+``joint_target`` or ``joint_qd`` reaches the solver, and the sim's updates are visible in the views without copies.
+Nothing here loops over worlds in Python.
 """
 
 from __future__ import annotations
 
-import re
 import time
 from dataclasses import dataclass, field
 from typing import Literal
@@ -26,74 +22,11 @@ from mujoco_warp import OverflowType
 from newton.sensors import SensorContact
 
 from cra_warp.rotations import quat_rotate
-from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows, WindowConfig
-from robots.robot_config import RobotConfig
+from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
+from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows
+from robots.robot_config import RobotConfig, robot_urdf_text
 
-FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
-
-
-@dataclass
-class WorldConfig:
-    """Physics settings of the batched world. Defaults are the ones benchmarked on the 2-core CPU."""
-
-    num_envs: int = 64
-    device: str = "cpu"
-    sim_dt: float = 0.005               # physics step [s]
-    substeps: int = 4                   # physics steps per env step (0.02 s); must be even (captured state swap)
-    contacts: Literal["feet", "all"] = "feet"  # robot shapes that collide with the terrain (never with each other)
-    contact_gap: float = 0.01           # contact detection margin [m]; Newton's 0.1 default makes ~8x more contacts
-    friction: float = 1.0               # robot shapes; per world with set_friction()
-    # The actuator law: an explicit PD tau = clamp(kp (q* - q) - kd qd, +-effort) at every physics step, as the
-    # robot's drives and a deploy loop run it. MuJoCo's Euler integrator evaluates the PD actuators explicitly;
-    # "implicitfast" (Newton's default) integrates their damping implicitly, a law the robot does not have.
-    integrator: Literal["euler", "implicitfast"] = "euler"
-    iterations: int = 5                 # constraint solver iterations (early exit on tolerance)
-    ls_iterations: int = 10
-    nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
-    njmax: int | None = None            # constraint rows per world; None: sized from nconmax
-    capture: bool = True                # record one env step as a graph and replay it (CPU and CUDA)
-    # Terrain boxes: each world holds the boxes near its robot (cra_warp.terrain_window); None: every world
-    # collides with the whole course (its broad phase then grows with the box count).
-    terrain_window: WindowConfig | None = field(default_factory=WindowConfig)
-
-    def __post_init__(self):
-        if self.num_envs < 1:
-            raise ValueError(f"WorldConfig.num_envs must be >= 1, got {self.num_envs}")
-        if self.substeps < 2 or self.substeps % 2:
-            raise ValueError(f"WorldConfig.substeps must be even and >= 2 (the captured state swap), got {self.substeps}")
-        if self.sim_dt <= 0:
-            raise ValueError(f"WorldConfig.sim_dt must be > 0, got {self.sim_dt}")
-
-    @property
-    def env_dt(self) -> float:
-        return self.sim_dt * self.substeps
-
-
-@dataclass
-class TerrainBoxes:
-    """Static terrain boxes (stairs, grid cells, slope slabs), in each world's window or shared by all worlds.
-    Arrays of length B."""
-
-    centers: np.ndarray                  # [B, 3] m
-    half_extents: np.ndarray             # [B, 3] m
-    quats: np.ndarray | None = None      # [B, 4] xyzw; None = axis aligned (filled with identities)
-
-    def __post_init__(self):
-        if self.quats is None:
-            self.quats = np.tile([0.0, 0.0, 0.0, 1.0], (len(self.centers), 1))
-
-
-def robot_urdf_text(robot: RobotConfig) -> str:
-    """The robot's URDF as the simulator and kinematics load it: joints the policy does not drive become fixed."""
-    text = robot.urdf_path.read_text()
-    for name in robot.fixed_joints:
-        text, n = re.subn(rf'(<joint name="{name}" type=")\w+(")', r"\1fixed\2", text)
-        if n != 1:
-            raise ValueError(f"{robot.urdf_path.name}: joint {name!r} listed in fixed_joints is not in the URDF")
-    return text
-
-
-class World:
+class NewtonWorld:
     """A batched Newton world of ``cfg.num_envs`` robots.
 
     Views (torch, on the sim's device, aliasing the sim's arrays):
@@ -158,6 +91,25 @@ class World:
         self.build_seconds = time.perf_counter() - t0
 
     # ---------------------------------------------------------------- building
+    @staticmethod
+    def mjcf(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None = None) -> str:
+        """The MJCF text of the MuJoCo model SolverMuJoCo builds for one world of ``cfg`` on ``terrain`` (every
+        terrain box in the model, no windows): the model the MuJoCo C backend runs. Bodies and joints are named
+        "<robot>_<link or joint>"."""
+        import dataclasses
+        import tempfile
+
+        one = dataclasses.replace(cfg, num_envs=1, device="cpu", capture=False, terrain_window=None, backend="newton")
+        model, _ = NewtonWorld._build_model(robot, one, terrain)
+        nconmax, njmax = NewtonWorld._buffer_sizes(one, terrain)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = f"{tmp}/model.xml"
+            newton.solvers.SolverMuJoCo(model, iterations=cfg.iterations, ls_iterations=cfg.ls_iterations,
+                                        nconmax=nconmax, njmax=njmax, integrator=cfg.integrator,
+                                        use_mujoco_contacts=True, disable_sensors=True, save_to_mjcf=path)
+            with open(path) as f:
+                return f.read()
+
     @staticmethod
     def _build_model(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None):
         proto = newton.ModelBuilder()
@@ -279,6 +231,27 @@ class World:
         self._shape_scale[shapes] = half
         self._changed |= int(newton.ModelFlags.SHAPE_PROPERTIES)
         self.commit_physics()  # with any parameters set since: one conversion
+
+    def usd_recorder(self, path: str, fps: int, num_frames: int):
+        """An animated USD stage of this world (Newton's ViewerUSD): call ``.frame(t)`` after each step you want
+        recorded, ``.close()`` at the end. Static shapes are drawn once, so a windowed world records its first
+        windows only: build it with terrain_window=None to record a whole course."""
+        import newton.viewer
+
+        viewer = newton.viewer.ViewerUSD(path, fps=fps, num_frames=num_frames)
+        viewer.set_model(self.model)
+        world = self
+
+        class _Recorder:
+            def frame(self, t: float):
+                viewer.begin_frame(t)
+                viewer.log_state(world.state_0)
+                viewer.end_frame()
+
+            def close(self):
+                viewer.close()
+
+        return _Recorder()
 
     # ---------------------------------------------------------------- stepping
     def _simulate(self):

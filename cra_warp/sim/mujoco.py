@@ -1,0 +1,291 @@
+"""The MuJoCo C backend: N copies of the MjModel Newton's SolverMuJoCo builds for one world, stepped together by
+mujoco.rollout's persistent thread pool (CPU only).
+
+It implements cra_warp.sim.config.World with the same physics as the Newton backend (same model, options, PD
+actuators and contact settings; tests hold the two to the same trajectories). Each world has its own MjModel, so
+physical parameters are per world. One env step is one rollout call of ``substeps`` physics steps for all worlds.
+
+MuJoCo keeps float64 state with wxyz quaternions and a free joint whose linear velocity is the body origin's and
+whose angular velocity is in the body frame; the views are float32 torch tensors in this interface's conventions
+(xyzw, base CoM velocity, world-frame angular velocity), converted once per step in batched torch. A world whose
+state view was written (reset, push, or directly) is converted back before the next step; the others keep their
+float64 state exactly. rollout starts each env step's constraint solve cold (it carries no warm start between
+calls), where Newton warm-starts from the previous physics step. Body poses and velocities, the whole-body CoM, foot forces and joint torques come from
+MuJoCo sensors of the last physics step, evaluated at its start (one physics step, 5 ms, before the state); a reset
+world gets them from a forward pass at its new state.
+Python loops run only over the worlds being reset or re-parameterised, never over all worlds in a step.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import re
+import time
+
+import mujoco
+import numpy as np
+import torch
+from mujoco import rollout
+
+from cra_warp.rotations import quat_rotate, quat_rotate_inv
+from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
+from robots.robot_config import RobotConfig
+
+# rollout takes and returns this state; each rollout starts the constraint solver cold (no warm start carried)
+_STATE = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
+_CONTROL = int(mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+_BODY_SENSORS = 13  # per body: position (3), quaternion wxyz (4) of its frame, CoM linear (3), angular velocity (3)
+
+
+def _wxyz_to_xyzw(q: torch.Tensor) -> torch.Tensor:
+    return torch.cat([q[..., 1:4], q[..., :1]], -1)
+
+
+def _xyzw_to_wxyz(q: torch.Tensor) -> torch.Tensor:
+    return torch.cat([q[..., 3:4], q[..., :3]], -1)
+
+
+class MujocoWorld:
+    """A batched MuJoCo C world of ``cfg.num_envs`` robots; see cra_warp.sim.config.World for the views."""
+
+    def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
+        from cra_warp.sim.newton import NewtonWorld  # builds the model (Newton's importer and MJCF export)
+
+        self.robot = robot
+        self.cfg = cfg = cfg or WorldConfig(backend="mujoco")
+        if cfg.device != "cpu":
+            raise ValueError(f"the MuJoCo backend runs on the CPU only, got device {cfg.device!r}")
+        t0 = time.perf_counter()
+        self.num_envs = N = cfg.num_envs
+        J, F = robot.num_joints, len(robot.foot_links)
+        xml = NewtonWorld.mjcf(robot, cfg, terrain)
+        prefix = f"{robot.name}_"
+        self._body_names = [b for b in re.findall(r'<body name="([^"]+)"', xml)]
+        names = [b[len(prefix):] for b in self._body_names]
+        self.num_bodies = B = len(names)
+        self.body_index = {n: i for i, n in enumerate(names)}
+        base = mujoco.MjModel.from_xml_string(self._with_sensors(xml, prefix))
+        base.opt.timestep = cfg.sim_dt  # Newton passes dt per step; its MJCF leaves the default
+        joints = [base.joint(j + 1).name[len(prefix):] for j in range(base.njnt - 1)]
+        if tuple(joints) != robot.joint_names or base.nu != J or base.nq != FREE_Q + J:
+            raise ValueError(f"{robot.name}: the MuJoCo model's joints {joints} are not the config's {robot.joint_names}")
+        self._base = base
+        self._models = [copy.copy(base) for _ in range(N)]
+        threads = cfg.threads or len(os.sched_getaffinity(0))
+        self._datas = [mujoco.MjData(base) for _ in range(threads)]
+        self._body_ids = np.array([base.body(n).id for n in self._body_names])           # [B] MuJoCo body ids
+        self._robot_geoms = np.flatnonzero(base.geom_bodyid > 0)                          # robot geoms (not world)
+        self._actuated_dofs = np.arange(FREE_QD, FREE_QD + J)
+
+        # float64 MuJoCo buffers (rollout reads and writes them) and their torch aliases
+        nstate = mujoco.mj_stateSize(base, _STATE)
+        self._state = np.zeros((N, nstate))
+        self._out = np.zeros((N, cfg.substeps, nstate))
+        self._sens = np.zeros((N, cfg.substeps, base.nsensordata))
+        self._control = np.zeros((N, cfg.substeps, base.nu + 6 * base.nbody))  # held for the env step
+        self._state64 = torch.from_numpy(self._state)
+        self._sens64 = torch.from_numpy(self._sens)
+        self._control64 = torch.from_numpy(self._control)
+        q0 = 1 + 0  # TIME comes first
+        self._qpos = slice(q0, q0 + base.nq)
+        self._qvel = slice(self._qpos.stop, self._qpos.stop + base.nv)
+        self._xfrc_base = base.nu + 6 * int(self._body_ids[0])  # external wrench slot of the base body
+
+        # float32 views in the interface's conventions
+        f32 = dict(dtype=torch.float32)
+        self.joint_q, self.joint_qd = torch.zeros(N, FREE_Q + J, **f32), torch.zeros(N, FREE_QD + J, **f32)
+        self.root_pos, self.root_quat = self.joint_q[:, 0:3], self.joint_q[:, 3:7]
+        self.root_lin_vel, self.root_ang_vel = self.joint_qd[:, 0:3], self.joint_qd[:, 3:6]
+        self.joint_pos, self.joint_vel = self.joint_q[:, FREE_Q:], self.joint_qd[:, FREE_QD:]
+        self.joint_target = torch.tensor(robot.default_q, **f32).repeat(N, 1)
+        self.base_force = torch.zeros(N, 6, **f32)
+        self._bodies = torch.zeros(N, B, _BODY_SENSORS, **f32)
+        self.body_pos, self.body_quat = self._bodies[..., 0:3], self._bodies[..., 3:7]
+        self.body_lin_vel, self.body_ang_vel = self._bodies[..., 7:10], self._bodies[..., 10:13]
+        self.foot_forces = torch.zeros(N, F, 3, **f32)
+        self.joint_torque = torch.zeros(N, J, **f32)
+        self._com = torch.zeros(N, 6, **f32)
+        self._sensor_slices()
+
+        # per-world physical parameters [N, ...] (float32 mirrors of the models'; set_* then commit_physics)
+        mass = torch.tensor(base.body_mass[self._body_ids], **f32)
+        self.body_mass = mass.repeat(N, 1)
+        self.body_com = torch.tensor(base.body_ipos[self._body_ids], **f32).repeat(N, 1, 1)
+        self._inertia0 = base.body_inertia[self._body_ids].copy()  # principal moments, body_iquat frame
+        self.joint_kp = torch.tensor(base.actuator_gainprm[:, 0], **f32).repeat(N, 1)
+        self.joint_kd = torch.tensor(-base.actuator_biasprm[:, 2], **f32).repeat(N, 1)
+        self.joint_effort_limit = torch.tensor(base.jnt_actfrcrange[1:, 1], **f32).repeat(N, 1)
+        self._friction = torch.full((N,), float(base.geom_friction[self._robot_geoms[0], 0]), **f32)
+        self._nominal = {k: getattr(self, k).clone() for k in
+                         ("body_mass", "body_com", "joint_kp", "joint_kd", "joint_effort_limit")}
+        self._dirty = torch.zeros(N, dtype=torch.bool)
+        self.windows = None  # every terrain box is in the model
+
+        # the initial state: the robot's standing pose at rest, in every world
+        self.default_joint_q = torch.zeros(N, FREE_Q + J, **f32)
+        self.default_joint_q[:, 2] = robot.base_height
+        self.default_joint_q[:, 6] = 1.0
+        self.default_joint_q[:, FREE_Q:] = torch.tensor(robot.default_q, **f32)
+        self.reset()
+        self.build_seconds = time.perf_counter() - t0
+
+    # ---------------------------------------------------------------- building
+    def _with_sensors(self, xml: str, prefix: str) -> str:
+        """The model's MJCF with the sensors the views read, in this order: per body (Newton's body order) its
+        frame position and quaternion, CoM linear and angular velocity; per foot the net contact force; per joint
+        the actuator torque; the whole-body CoM and its velocity."""
+        rows = []
+        for b in self._body_names:
+            rows += [f'<framepos objtype="xbody" objname="{b}"/>', f'<framequat objtype="xbody" objname="{b}"/>',
+                     f'<framelinvel objtype="body" objname="{b}"/>', f'<frameangvel objtype="body" objname="{b}"/>']
+        rows += [f'<contact body1="{prefix}{f}" data="force" reduce="netforce" num="1"/>' for f in self.robot.foot_links]
+        rows += [f'<jointactuatorfrc joint="{prefix}{j}"/>' for j in self.robot.joint_names]
+        root = self._body_names[0]
+        rows += [f'<subtreecom body="{root}"/>', f'<subtreelinvel body="{root}"/>']
+        xml = re.sub(r'\s*<flag sensor="disable"[^/]*/>', "", xml)
+        return xml.replace("</mujoco>", "<sensor>\n" + "\n".join(rows) + "\n</sensor>\n</mujoco>")
+
+    def _sensor_slices(self):
+        B, F, J = self.num_bodies, len(self.robot.foot_links), self.robot.num_joints
+        n_bodies = B * _BODY_SENSORS
+        self._s_bodies = slice(0, n_bodies)
+        self._s_feet = slice(n_bodies, n_bodies + 3 * F)
+        self._s_torque = slice(self._s_feet.stop, self._s_feet.stop + J)
+        self._s_com = slice(self._s_torque.stop, self._s_torque.stop + 6)
+        if self._s_com.stop != self._base.nsensordata:
+            raise AssertionError("sensor layout does not match the model's sensordata")
+
+    # ---------------------------------------------------------------- state conversion
+    def _publish(self, ids: torch.Tensor | None = None):
+        """float64 MuJoCo state and sensors -> the float32 views (all worlds, or ``ids``)."""
+        ids = slice(None) if ids is None else ids
+        qpos, qvel = self._state64[ids, self._qpos], self._state64[ids, self._qvel]
+        quat = _wxyz_to_xyzw(qpos[:, 3:7])
+        w_world = quat_rotate(quat, qvel[:, 3:6])
+        c = quat_rotate(quat, self.body_com[ids, 0].double())                     # base CoM offset, world frame
+        v_com = qvel[:, 0:3] + torch.cross(w_world, c, dim=-1)
+        self.joint_q[ids] = torch.cat([qpos[:, 0:3], quat, qpos[:, 7:]], -1).float()
+        self.joint_qd[ids] = torch.cat([v_com, w_world, qvel[:, 6:]], -1).float()
+        s = self._sens64[ids, -1]
+        bodies = s[:, self._s_bodies].view(-1, self.num_bodies, _BODY_SENSORS)
+        self._bodies[ids] = torch.cat([bodies[..., 0:3], _wxyz_to_xyzw(bodies[..., 3:7]), bodies[..., 7:]], -1).float()
+        self.foot_forces[ids] = -s[:, self._s_feet].view(-1, len(self.robot.foot_links), 3).float()  # on the foot
+        self.joint_torque[ids] = s[:, self._s_torque].float()
+        self._com[ids] = s[:, self._s_com].float()
+        self._published_q, self._published_qd = self.joint_q.clone(), self.joint_qd.clone()
+
+    def _write_back(self, rows: torch.Tensor):
+        """The float32 views of worlds ``rows`` -> their float64 MuJoCo state (inverse of _publish)."""
+        q, qd = self.joint_q[rows].double(), self.joint_qd[rows].double()
+        quat = q[:, 3:7] / q[:, 3:7].norm(dim=-1, keepdim=True)
+        c = quat_rotate(quat, self.body_com[rows, 0].double())
+        v_origin = qd[:, 0:3] - torch.cross(qd[:, 3:6], c, dim=-1)
+        self._state64[rows, self._qpos] = torch.cat([q[:, 0:3], _xyzw_to_wxyz(quat), q[:, 7:]], -1)
+        self._state64[rows, self._qvel] = torch.cat([v_origin, quat_rotate_inv(quat, qd[:, 3:6]), qd[:, 6:]], -1)
+
+    def _forward(self, ids: torch.Tensor):
+        """Sensors of worlds ``ids`` at their current state (one forward pass each), as the last step's output."""
+        d = self._datas[0]
+        for i in ids.tolist():
+            mujoco.mj_setState(self._models[i], d, self._state[i], _STATE)
+            d.ctrl[:] = self._control[i, 0, :self._base.nu]
+            mujoco.mj_forward(self._models[i], d)
+            self._sens[i, -1] = d.sensordata
+
+    # ---------------------------------------------------------------- stepping
+    def step(self):
+        """Advance one env step (substeps x sim_dt). The views hold the new state afterwards."""
+        changed = ((self.joint_q != self._published_q).any(1) | (self.joint_qd != self._published_qd).any(1))
+        if changed.any():
+            self._write_back(changed.nonzero().flatten())
+        nu = self._base.nu
+        self._control64[:, :, :nu] = self.joint_target.unsqueeze(1)
+        self._control64[:, :, self._xfrc_base:self._xfrc_base + 6] = self.base_force.unsqueeze(1)
+        rollout.rollout(self._models, self._datas, self._state, self._control, control_spec=_CONTROL,
+                        skip_checks=True, nstep=self.cfg.substeps, state=self._out, sensordata=self._sens,
+                        persistent_pool=True)
+        self._state[:] = self._out[:, -1]
+        self._publish()
+
+    def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,
+              joint_qd: torch.Tensor | None = None):
+        """Set the full state of the worlds ``env_ids`` (all if None); other worlds are untouched. Same arguments
+        and conventions as the Newton backend: targets to the reference pose, external forces to zero."""
+        ids = torch.arange(self.num_envs) if env_ids is None else env_ids.cpu().long()
+        self.joint_q[ids] = self.default_joint_q[ids] if joint_q is None else joint_q.float()
+        self.joint_qd[ids] = 0.0 if joint_qd is None else joint_qd.float()
+        self.joint_target[ids] = self.default_joint_q[ids, FREE_Q:]
+        self.base_force[ids] = 0.0
+        self._write_back(ids)
+        self._state64[ids, 0] = 0.0
+        self._control64[ids] = 0.0
+        self._control64[ids, :, :self._base.nu] = self.joint_target[ids].double().unsqueeze(1)
+        self._forward(ids)
+        self._sens64[ids, -1, self._s_feet] = 0.0  # no contact force before the first step, as in Newton
+        self._publish(ids)
+
+    def com(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Whole-body CoM [N, 3] and its velocity [N, 3] (MuJoCo's subtree sensors of the base)."""
+        return self._com[:, 0:3], self._com[:, 3:6]
+
+    def apply_impulse(self, env_ids: torch.Tensor, delta_v: torch.Tensor):
+        """Add ``delta_v`` [n, 3] (m/s, world frame) to the base velocity of the given worlds (a push)."""
+        self.joint_qd[env_ids.cpu(), 0:3] += delta_v.cpu()
+
+    # ---------------------------------------------------------------- physical parameters (domain randomisation)
+    def set_mass_scale(self, env_ids: torch.Tensor, scale: torch.Tensor):
+        """Scale every link's mass and inertia of the given worlds by ``scale`` [n, B] relative to nominal."""
+        ids = env_ids.cpu()
+        self.body_mass[ids] = self._nominal["body_mass"][ids] * scale.cpu()
+        self._dirty[ids] = True
+
+    def set_base_com_offset(self, env_ids: torch.Tensor, offset: torch.Tensor):
+        """Move the base link's CoM of the given worlds by ``offset`` [n, 3] (base frame, m) from nominal."""
+        ids = env_ids.cpu()
+        self.body_com[ids, 0] = self._nominal["body_com"][ids, 0] + offset.cpu()
+        self._dirty[ids] = True
+
+    def set_actuators(self, env_ids: torch.Tensor, strength: torch.Tensor, kp_scale: torch.Tensor | None = None,
+                      kd_scale: torch.Tensor | None = None):
+        """As the Newton backend: PD gains off by ``kp_scale`` / ``kd_scale``, torque (and limit) x ``strength``."""
+        ids, strength = env_ids.cpu(), strength.cpu()
+        kp_scale = 1.0 if kp_scale is None else kp_scale.cpu()
+        kd_scale = 1.0 if kd_scale is None else kd_scale.cpu()
+        self.joint_kp[ids] = self._nominal["joint_kp"][ids] * strength * kp_scale
+        self.joint_kd[ids] = self._nominal["joint_kd"][ids] * strength * kd_scale
+        self.joint_effort_limit[ids] = self._nominal["joint_effort_limit"][ids] * strength
+        self._dirty[ids] = True
+
+    def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor):
+        """Friction coefficient [n] of every robot geom in the given worlds (the terrain is frictionless)."""
+        ids = env_ids.cpu()
+        self._friction[ids] = mu.cpu().float()
+        self._dirty[ids] = True
+
+    def commit_physics(self):
+        """Write the parameters changed by set_* into the changed worlds' models (a loop over those only)."""
+        ids = self._dirty.nonzero().flatten().tolist()
+        if not ids:
+            return
+        bodies, geoms = self._body_ids, self._robot_geoms
+        mass, com = self.body_mass.double().numpy(), self.body_com.double().numpy()
+        kp, kd = self.joint_kp.double().numpy(), self.joint_kd.double().numpy()
+        effort, mu = self.joint_effort_limit.double().numpy(), self._friction.double().numpy()
+        nominal_mass = self._nominal["body_mass"].double().numpy()
+        for i in ids:
+            m = self._models[i]
+            m.body_mass[bodies] = mass[i]
+            m.body_inertia[bodies] = self._inertia0 * (mass[i] / nominal_mass[i])[:, None]
+            m.body_ipos[bodies] = com[i]
+            m.actuator_gainprm[:, 0] = kp[i]
+            m.actuator_biasprm[:, 1] = -kp[i]
+            m.actuator_biasprm[:, 2] = -kd[i]
+            m.jnt_actfrcrange[1:, 0] = -effort[i]
+            m.jnt_actfrcrange[1:, 1] = effort[i]
+            m.geom_friction[geoms, 0] = mu[i]
+            mujoco.mj_setConst(m, self._datas[0])  # derived constants (body subtree masses, inverse weights)
+        self._dirty[:] = False
+
+    def close(self):
+        rollout.shutdown_persistent_pool()
