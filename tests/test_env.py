@@ -200,3 +200,21 @@ def test_an_early_fall_is_demoted_by_the_whole_episode_distance():
     env.start_xy[:] = env.root_pos[:, :2] - torch.tensor([0.6, 0.0])
     env.reset_idx(torch.tensor([0]))
     assert cur.levels.tolist() == [1, 2]
+
+
+def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
+    from cra_warp.sim import WorldConfig
+
+    cfgs = {b: LocoConfig(num_envs=4, world=WorldConfig(backend=b), obs=ObsConfig(noise=False)) for b in
+            ("newton", "mujoco")}
+    envs = {b: LocoEnv(c) for b, c in cfgs.items()}
+    obs = {b: e.get_observations() for b, e in envs.items()}
+    for k in ("policy", "privileged", "height_map"):
+        assert obs["newton"][k].shape == obs["mujoco"][k].shape
+    # the same state at reset: the same observation up to float32 rounding (commands and DR draws are seeded alike)
+    assert torch.allclose(obs["newton"]["policy"], obs["mujoco"]["policy"], atol=1e-4)
+    e = envs["mujoco"]
+    gen = torch.Generator().manual_seed(0)
+    for _ in range(50):
+        o, rew, dones, extras = e.step(torch.randn(4, e.num_actions, generator=gen))
+        assert torch.isfinite(rew).all() and all(torch.isfinite(v).all() for v in o.values())

@@ -24,6 +24,8 @@ from train import train as train_cli
     (["--num-envs", "6", "--mini-batches", "4"], "--mini-batches"),
     (["--contrast-weight", "nan"], "--contrast-weight"),
     (["--contrast-tau", "0"], "--contrast-tau"),
+    (["--sim", "bullet"], "--sim"),
+    (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, train_cli.main(args), word)
@@ -31,13 +33,13 @@ def test_train_rejects_bad_values(capsys, args, word):
 
 @pytest.fixture(scope="module")
 def trained(tmp_path_factory):
-    """A 2-iteration run with checkpoints every iteration, then a 1-iteration resume of it."""
+    """A 2-iteration run with checkpoints every iteration, then a 1-iteration resume of it on the MuJoCo backend."""
     logs = tmp_path_factory.mktemp("runs")
     common = ["--num-envs", "4", "--save-interval", "1", "--log-dir", str(logs), "--quiet"]
     assert train_cli.main(["--max-iterations", "2", *common]) == 0
     first = next(logs.iterdir())
     assert train_cli.main(["--max-iterations", "1", "--resume", str(first / "model_1.pt"), "--no-export",
-                           *common]) == 0
+                           "--sim", "mujoco", *common]) == 0
     second = next(d for d in logs.iterdir() if d != first)
     return first, second
 
@@ -57,6 +59,7 @@ def test_resume_continues_iterations_and_optimizer(trained):
     before = torch.load(first / "model_1.pt", weights_only=False)
     after = torch.load(second / "model_2.pt", weights_only=False)
     assert after["iter"] == 2
+    assert before["infos"]["sim"] == "newton" and after["infos"]["sim"] == "mujoco"  # the run records its sim
 
     def adam_steps(ckpt):
         return max(float(s["step"]) for s in ckpt["optimizer_state_dict"]["state"].values())
