@@ -30,8 +30,8 @@ import pytorch_kinematics as pk
 import torch
 from pytorch_kinematics.transforms import matrix_to_quaternion, quaternion_to_matrix, wxyz_to_xyzw, xyzw_to_wxyz
 
-from robots.robot_config import robot_urdf_text
-from robots.robot_config import RobotConfig
+from cra_warp.rotations import quat_rotate
+from robots.robot_config import RobotConfig, robot_urdf_text
 
 
 class FootKinematics(NamedTuple):
@@ -129,6 +129,14 @@ class Kinematics:
         corners = pos[:, :, None] + torch.einsum("nfij,kj->nfki", rot, self.sole_corners_local)
         centres = pos + torch.einsum("nfij,j->nfi", rot, self.sole_centre_local)
         return FootKinematics(pos, _matrix_to_xyzw(rot), corners, centres)
+
+    def feet_at(self, foot_pos: torch.Tensor, foot_quat: torch.Tensor) -> FootKinematics:
+        """Sole corners/centres of feet whose link poses are known (the simulator holds them: no FK pass).
+        foot_pos [N, F, 3], foot_quat [N, F, 4] xyzw."""
+        corners = foot_pos[:, :, None] + quat_rotate(foot_quat[:, :, None], self.sole_corners_local.expand(
+            *foot_pos.shape[:2], -1, -1))
+        centres = foot_pos + quat_rotate(foot_quat, self.sole_centre_local.expand_as(foot_pos))
+        return FootKinematics(foot_pos, foot_quat, corners, centres)
 
     def sole_points(self, base_pos: torch.Tensor, base_quat: torch.Tensor,
                     q: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

@@ -177,7 +177,7 @@ class LocoEnv(VecEnv):
         self.joint_pos, self.joint_vel, self.joint_target = w.joint_pos, w.joint_vel, w.joint_target
         self.joint_acc = (w.joint_vel - self.last_joint_vel) / self.dt
 
-        feet = self.kin.feet(w.root_pos, q, w.joint_pos)
+        feet = self.kin.feet_at(w.body_pos[:, self.foot_bodies], w.body_quat[:, self.foot_bodies])  # no FK pass
         self.sole_corners, self.sole_centres, self.feet_quat = feet.sole_corners, feet.sole_centres, feet.quat
         self.feet_lin_vel = w.body_lin_vel[:, self.foot_bodies]
         self.foot_forces = w.foot_forces

@@ -46,6 +46,7 @@ class TrainArgs:
     save_interval: int = 20            # iterations between checkpoints
     epochs: int = 5                    # PPO epochs per iteration (3: ~40% less update time, see tools/bench_learner.py)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
+    bf16: bool = False                 # bf16 autocast in the PPO update (AMX CPUs, recent GPUs)
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
     contrast_tau: float = 0.1          # InfoNCE temperature
     export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
@@ -135,11 +136,12 @@ def run(a: TrainArgs):
     learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
                                            tau=a.contrast_tau)
-    learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches)
+    learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
+                                      use_mixed_precision=a.bf16)
     run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
                        quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
-                                                          "sim": a.sim})
+                                                          "sim": a.sim, "bf16": a.bf16})
     if a.resume is not None:
         load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it

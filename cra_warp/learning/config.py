@@ -112,6 +112,10 @@ class PPOConfig:
     max_grad_norm: float = 1.0
     use_clipped_value_loss: bool = True
     normalize_advantage_per_mini_batch: bool = False
+    # bf16 autocast of the update's forward passes and losses (rsl-rl's own switch); parameters, optimizer state,
+    # returns and advantages stay fp32, and InfoNCE's softmax runs in fp32. On this CPU's AMX: PPO update at N=512,
+    # one thread, 10.6-11.0 s -> 6.4-6.9 s (matrix products ~2.3x, the rest memory-bound).
+    use_mixed_precision: bool = False
 
 
 @dataclass
