@@ -1,0 +1,41 @@
+"""cra-curves on small synthetic TensorBoard logs: arms, seed spread, the figure, bad input."""
+
+import json
+
+from conftest import one_line_error
+from tools import curves
+
+
+def _run(path, rewards):
+    from torch.utils.tensorboard import SummaryWriter
+
+    w = SummaryWriter(str(path))
+    for i, r in enumerate(rewards):
+        w.add_scalar("Train/mean_reward", r, i)
+        w.add_scalar("Train/mean_episode_length", 10 * r, i)
+    w.close()
+    return path
+
+
+def test_arms_within_and_outside_the_seed_spread(tmp_path):
+    a1 = _run(tmp_path / "a1", [1, 2, 3, 4])
+    a2 = _run(tmp_path / "a2", [1, 2, 3, 6])
+    b1 = _run(tmp_path / "b1", [1, 2, 3, 5])
+    b2 = _run(tmp_path / "b2", [1, 2, 3, 5.5])
+    c1 = _run(tmp_path / "c1", [1, 2, 3, 20])
+    out, js = tmp_path / "fig.png", tmp_path / "s.json"
+    assert curves.main([f"a={a1},{a2}", f"b={b1},{b2}", "--last", "1", "--out", str(out), "--json", str(js)]) == 0
+    s = json.loads(js.read_text())["summary"]["Train/mean_reward"]
+    assert s["arms"]["a"]["spread"] == 2.0 and s["arms"]["b"]["mean"] == 5.25 and s["within_spread"]
+    assert out.stat().st_size > 10_000
+    assert curves.main([f"a={a1},{a2}", f"c={c1}", "--last", "1", "--out", str(out), "--json", str(js)]) == 0
+    assert not json.loads(js.read_text())["summary"]["Train/mean_reward"]["within_spread"]
+
+
+def test_bad_arms_are_one_line_errors(tmp_path, capsys):
+    one_line_error(capsys, curves.main(["nodir", "--out", str(tmp_path / "f.png")]), "NAME=DIR")
+    one_line_error(capsys, curves.main([f"a={tmp_path / 'missing'}", "--out", str(tmp_path / "f.png")]),
+                   "no such directory")
+    (tmp_path / "empty").mkdir()
+    one_line_error(capsys, curves.main([f"a={tmp_path / 'empty'}", "--out", str(tmp_path / "f.png")]),
+                   "no TensorBoard event files")
