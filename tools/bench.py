@@ -1,11 +1,15 @@
-"""cra-bench: throughput and memory of the Adam Lite world, Newton (1 and 2 processes) against MuJoCo C.
+"""cra-bench: throughput and memory of the Adam Lite world on both backends, and of the full task on both.
 
 One env step = cfg.substeps x cfg.sim_dt (4 x 0.005 s = 0.02 s of sim time). Every configuration runs in a fresh
-worker process, so its peak RSS is its own. The robots stand under PD control at the reference pose while measured;
-each record says which fraction was still up at the end (pelvis within 15 cm of its spawn height, upright).
-
-MuJoCo C runs the very model Newton builds (SolverMuJoCo's own MJCF export: same bodies, geoms, actuators, contact
-and solver options), through mujoco.rollout, one rollout call per env step.
+worker process, so its peak RSS is its own. Engines:
+  newton       the Newton world (1 or 2 processes), robots held up by the scripted stand (cra_warp.stand)
+  mujoco       the MuJoCo C backend (1 or 2 rollout threads in one process), scripted stand
+  rollout      bare mujoco.rollout on the same model with constant targets, no conversions (the floor of the
+               MuJoCo backend's cost; under the robot's soft ankles these robots fall, see "standing")
+  task         the full locomotion env (obs, rewards, maps, resets) on Newton, scripted-stand actions
+  task_mujoco  the same on the MuJoCo backend, 1 or 2 rollout threads
+Each record says which fraction of robots was still up at the end (pelvis within 15 cm of its spawn height,
+upright). MuJoCo C runs the very model Newton builds (SolverMuJoCo's own MJCF export).
 
     cra-bench                                   # the full table (several minutes)
     cra-bench --num-envs 64 256 --no-cold       # a quick look
@@ -28,7 +32,8 @@ from cra_warp.host_memory import keep_freed_memory
 
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
 TERRAINS = ("flat", "stairs", "rough")  # rough: the training course (897 boxes, per-world windows), level-0 tiles
-ENGINES = ("newton", "mujoco", "task")  # task: the full locomotion env (Newton + obs, rewards, resets)
+ENGINES = ("newton", "mujoco", "rollout", "task", "task_mujoco")
+THREADED = ("mujoco", "rollout", "task_mujoco")  # one process, --parallel threads; the others: --parallel processes
 
 
 def stairs():
@@ -67,11 +72,14 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _newton_worker(spec: dict) -> dict:
+def _world_worker(spec: dict) -> dict:
     import torch
 
     from cra_warp.sim import WorldConfig, make_world
+    from cra_warp.stand import ScriptedStand
     from robots.adam_lite import ADAM_LITE
+
+    torch.set_num_threads(1)
 
     n = spec["num_envs"]
     if spec["terrain"] == "rough":
@@ -82,40 +90,49 @@ def _newton_worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     # stairs: shared boxes, the very model MuJoCo C runs; rough: per-world windows of the course, as training does
     window = {} if spec["terrain"] == "rough" else {"terrain_window": None}
-    world = make_world(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], **window), terrain)
+    world = make_world(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], backend=spec["backend"],
+                                              threads=spec.get("threads", 0), **window), terrain)
+    stand = ScriptedStand(ADAM_LITE, world.joint_pos.device)
     q = world.default_joint_q.clone()
     q[:, :3] += origins.to(q.device)
-    world.default_joint_q.copy_(q)
-    world.reset()
-    world.step()
+    world.reset(joint_q=q)
+
+    def step():
+        world.joint_target.copy_(stand.targets(world))
+        world.step()
+
+    step()
     start_s = time.perf_counter() - t0
     spawn_z = world.root_pos[:, 2].clone()
     for _ in range(spec["warmup"]):
-        world.step()
+        step()
     steps, t0 = 0, time.perf_counter()
     while steps < spec["min_steps"] or time.perf_counter() - t0 < spec["seconds"]:
-        world.step()
+        step()
         steps += 1
-    wp_sync(world)
+    if spec["backend"] == "newton":
+        wp_sync(world)
     dt = time.perf_counter() - t0
     up = (world.root_pos[:, 2] > spawn_z - STAND_DROP) & _upright(world.root_quat)
-    return {"engine": "newton", "num_envs": spec["num_envs"], "env_steps_per_s": steps * spec["num_envs"] / dt,
+    return {"engine": spec["backend"], "num_envs": spec["num_envs"], "env_steps_per_s": steps * spec["num_envs"] / dt,
             "peak_rss_mb": _peak_rss_mb(), "standing": float(up.float().mean()), "start_s": start_s,
             "bodies": world.num_bodies}
 
 
 def _task_worker(spec: dict) -> dict:
-    """The locomotion task with zero actions: env-steps/s and the share of time spent outside the Newton step."""
+    """The locomotion task under scripted-stand actions: env-steps/s and the share of time spent outside the
+    world's step."""
     import torch
 
+    from cra_warp.sim import WorldConfig
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
     torch.set_num_threads(1)  # the learner's threads are a separate budget; one core per process here
     t0 = time.perf_counter()
-    env = LocoEnv(LocoConfig(num_envs=spec["num_envs"], device=spec["device"], terrain=spec["terrain"]))
+    world = WorldConfig(backend=spec["backend"], threads=spec.get("threads", 0))
+    env = LocoEnv(LocoConfig(num_envs=spec["num_envs"], device=spec["device"], terrain=spec["terrain"], world=world))
     start_s = time.perf_counter() - t0
-    actions = torch.zeros(env.num_envs, env.num_actions, device=env.device)
     sim_step, sim_s = env.world.step, [0.0]
 
     def timed_sim_step():
@@ -126,14 +143,16 @@ def _task_worker(spec: dict) -> dict:
     env.world.step = timed_sim_step
     with torch.inference_mode():
         for _ in range(spec["warmup"]):
-            env.step(actions)
+            env.step(env.stand_actions())
         sim_s[0], steps, t0 = 0.0, 0, time.perf_counter()
         while steps < spec["min_steps"] or time.perf_counter() - t0 < spec["seconds"]:
-            env.step(actions)
+            env.step(env.stand_actions())
             steps += 1
     dt = time.perf_counter() - t0
-    return {"engine": "task", "num_envs": env.num_envs, "env_steps_per_s": steps * env.num_envs / dt,
-            "peak_rss_mb": _peak_rss_mb(), "standing": float("nan"), "start_s": start_s,
+    up = (env.root_pos[:, 2] - env.ground_under_base > env.robot.base_height - STAND_DROP) & _upright(env.world.root_quat)
+    return {"engine": "task" if spec["backend"] == "newton" else "task_mujoco", "num_envs": env.num_envs,
+            "env_steps_per_s": steps * env.num_envs / dt,
+            "peak_rss_mb": _peak_rss_mb(), "standing": float(up.float().mean()), "start_s": start_s,
             "overhead_vs_sim": (dt - sim_s[0]) / sim_s[0]}
 
 
@@ -176,7 +195,7 @@ def _upright(quat_xyzw):
     return 1.0 - 2.0 * (x * x + y * y) > 0.9
 
 
-def _mujoco_worker(spec: dict) -> dict:
+def _rollout_worker(spec: dict) -> dict:
     import mujoco
     import numpy as np
     from mujoco import rollout
@@ -217,28 +236,17 @@ def _mujoco_worker(spec: dict) -> dict:
     rollout.shutdown_persistent_pool()
     qx, qy = state[:, 5], state[:, 6]  # state = [time, qpos (xyz, quaternion wxyz, joints), ...]
     up = (state[:, 3] > spawn_z - STAND_DROP) & (1.0 - 2.0 * (qx * qx + qy * qy) > 0.9)
-    return {"engine": "mujoco", "num_envs": n, "env_steps_per_s": steps * n / dt, "peak_rss_mb": _peak_rss_mb(),
+    return {"engine": "rollout", "num_envs": n, "env_steps_per_s": steps * n / dt, "peak_rss_mb": _peak_rss_mb(),
             "standing": float(up.mean()), "start_s": start_s}
 
 
 def export_mjcf(terrain: str, path: str) -> None:
     """Write the MJCF that SolverMuJoCo builds for a one-robot world with the benchmark's options."""
-    import newton
-
-    from cra_warp.sim import WorldConfig, make_world
+    from cra_warp.sim import WorldConfig
+    from cra_warp.sim.newton import NewtonWorld
     from robots.adam_lite import ADAM_LITE
 
-    init = newton.solvers.SolverMuJoCo.__init__
-
-    def with_export(self, *args, **kwargs):
-        init(self, *args, **kwargs, save_to_mjcf=path)
-
-    newton.solvers.SolverMuJoCo.__init__ = with_export
-    try:
-        make_world(ADAM_LITE, WorldConfig(num_envs=1, capture=False, terrain_window=None),
-              stairs()[0] if terrain == "stairs" else None)
-    finally:
-        newton.solvers.SolverMuJoCo.__init__ = init
+    Path(path).write_text(NewtonWorld.mjcf(ADAM_LITE, WorldConfig(), stairs()[0] if terrain == "stairs" else None))
 
 
 def _run_workers(specs: list[dict], env: dict | None = None) -> list[dict]:
@@ -258,23 +266,30 @@ def _run_workers(specs: list[dict], env: dict | None = None) -> list[dict]:
 def measure(engine: str, parallel: int, terrain: str, num_envs: int, args, mjcf: dict[str, str]) -> dict:
     base = {"terrain": terrain, "seconds": args.seconds, "min_steps": args.min_steps, "warmup": args.warmup}
     if engine in ("newton", "task"):
-        per = [{**base, "kind": engine, "num_envs": num_envs // parallel, "device": args.device}] * parallel
+        kind = "world" if engine == "newton" else "task"
+        per = [{**base, "kind": kind, "backend": "newton", "num_envs": num_envs // parallel,
+                "device": args.device}] * parallel
         recs = _run_workers(per)
+    elif engine in ("mujoco", "task_mujoco"):
+        kind = "world" if engine == "mujoco" else "task"
+        recs = _run_workers([{**base, "kind": kind, "backend": "mujoco", "num_envs": num_envs, "threads": parallel,
+                              "device": "cpu"}])
     else:
-        spec = {**base, "kind": "mujoco", "num_envs": num_envs, "threads": parallel, "mjcf": mjcf[terrain],
+        spec = {**base, "kind": "rollout", "num_envs": num_envs, "threads": parallel, "mjcf": mjcf[terrain],
                 "sim_dt": 0.005, "substeps": 4, "ground": stairs()[1] if terrain == "stairs" else 0.0}
         recs = _run_workers([spec])
-    rec = {"engine": engine, ("threads" if engine == "mujoco" else "processes"): parallel, "terrain": terrain,
+    rec = {"engine": engine, ("threads" if engine in THREADED else "processes"): parallel, "terrain": terrain,
            "num_envs": num_envs, "env_steps_per_s": sum(r["env_steps_per_s"] for r in recs),
            "peak_rss_mb": sum(r["peak_rss_mb"] for r in recs), "standing": min(r["standing"] for r in recs)}
-    if engine == "task":
+    if engine.startswith("task"):
         rec["overhead_vs_sim"] = max(r["overhead_vs_sim"] for r in recs)
     return rec
 
 
 def start_times(num_envs: int, device: str, cold: bool) -> dict:
     """Build time of a world (kernels loaded, one step taken): cold = empty Warp kernel cache, warm = ours."""
-    spec = {"kind": "newton", "terrain": "flat", "num_envs": num_envs, "device": device, "seconds": 0.0,
+    spec = {"kind": "world", "backend": "newton", "terrain": "flat", "num_envs": num_envs, "device": device,
+            "seconds": 0.0,
             "min_steps": 1, "warmup": 0}
     cold_s = float("nan")
     if cold:
@@ -287,14 +302,14 @@ def start_times(num_envs: int, device: str, cold: bool) -> dict:
 def print_table(records: list[dict]) -> None:
     rows = [r for r in records if r.get("kind") != "start" and r["engine"] not in ("learner", "height_maps")]
     mj1 = {(r["terrain"], r["num_envs"]): r["env_steps_per_s"] for r in rows
-           if r["engine"] == "mujoco" and r.get("threads") == 1}
-    print(f"{'engine':8} {'par':>3} {'terrain':7} {'N':>5} {'env-steps/s':>12} {'peak MB':>8} {'MB/env':>7} "
-          f"{'standing':>8} {'/MuJoCo-1t':>10}")
+           if r["engine"] == "rollout" and r.get("threads") == 1}
+    print(f"{'engine':11} {'par':>3} {'terrain':7} {'N':>5} {'env-steps/s':>12} {'peak MB':>8} {'MB/env':>7} "
+          f"{'standing':>8} {'/rollout-1t':>11}")
     for r in rows:
         par = r.get("processes", r.get("threads"))
         ref = mj1.get((r["terrain"], r["num_envs"]))
-        ratio = f"{r['env_steps_per_s'] / ref:10.2f}" if ref else f"{'-':>10}"
-        print(f"{r['engine']:8} {par:3d} {r['terrain']:7} {r['num_envs']:5d} {r['env_steps_per_s']:12.0f} "
+        ratio = f"{r['env_steps_per_s'] / ref:11.2f}" if ref else f"{'-':>11}"
+        print(f"{r['engine']:11} {par:3d} {r['terrain']:7} {r['num_envs']:5d} {r['env_steps_per_s']:12.0f} "
               f"{r['peak_rss_mb']:8.0f} {r['peak_rss_mb'] / r['num_envs']:7.3f} {r['standing']:8.2f} {ratio}")
     for r in records:
         if r.get("kind") == "start":
@@ -309,11 +324,12 @@ def print_table(records: list[dict]) -> None:
             print(f"height maps (17x11 + 2 x 5x5) N={r['num_envs']}, {'compiled' if r['compile'] else 'eager'}, "
                   f"{r['torch_threads']} thread(s): {r['ms_per_step']:.1f} ms per env step")
     for r in rows:
-        if r["engine"] == "task":
-            print(f"task {r['terrain']} N={r['num_envs']} x{r['processes']}: env overhead (obs, rewards, sampling, "
-                  f"resets) = {100 * r['overhead_vs_sim']:.0f}% of the Newton step time")
-    down = [r for r in rows if r["standing"] < 1.0]
-    print("all robots standing under PD while measured" if not down else
+        if r["engine"].startswith("task"):
+            par = f"x{r['processes']}" if "processes" in r else f"{r['threads']} threads"
+            print(f"{r['engine']} {r['terrain']} N={r['num_envs']} {par}: env overhead (obs, rewards, sampling, "
+                  f"resets) = {100 * r['overhead_vs_sim']:.0f}% of the world step time")
+    down = [r for r in rows if r["standing"] < 1.0 and r["engine"] != "rollout"]
+    print("all robots standing under the scripted stand while measured" if not down else
           f"NOT all standing: {[(r['engine'], r['terrain'], r['num_envs'], r['standing']) for r in down]}")
 
 
@@ -336,7 +352,7 @@ def main(argv: list[str] | None = None) -> int:
     keep_freed_memory()  # as cra-train does: measure what training runs with
     if args.worker:
         spec = json.loads(args.worker)
-        rec = {"newton": _newton_worker, "mujoco": _mujoco_worker, "task": _task_worker,
+        rec = {"world": _world_worker, "rollout": _rollout_worker, "task": _task_worker,
                "learner": _learner_worker, "maps": _maps_worker}[spec["kind"]](spec)
         print(json.dumps(rec))
         return 0
@@ -347,15 +363,15 @@ def main(argv: list[str] | None = None) -> int:
     records = []
     with tempfile.TemporaryDirectory() as tmp:
         mjcf = {}
-        if "mujoco" in args.engines:
+        if "rollout" in args.engines:
             for t in args.terrain:
                 mjcf[t] = str(Path(tmp) / f"adam_lite_{t}.xml")
                 _run_export(t, mjcf[t])
         for t in args.terrain:
             for n in args.num_envs:
                 for engine in args.engines:
-                    if (engine == "task" and t == "stairs") or (engine == "mujoco" and t == "rough"):
-                        continue  # the task walks flat or rough; MuJoCo C is compared on flat and stairs
+                    if (engine.startswith("task") and t == "stairs") or (engine == "rollout" and t == "rough"):
+                        continue  # the task walks flat or rough; the bare rollout is compared on flat and stairs
                     for par in args.parallel:
                         rec = measure(engine, par, t, n, args, mjcf)
                         records.append(rec)
