@@ -129,6 +129,8 @@ def run(a: TrainArgs):
 
     keep_freed_memory()  # batched CPU tensors page-fault on every allocation otherwise (see host_memory)
     rank = int(os.getenv("RANK", "0"))
+    if a.device.startswith("cuda") and int(os.getenv("WORLD_SIZE", "1")) > 1:  # torchrun: one GPU per rank
+        a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
     env_variant, contrast = VARIANTS[a.variant]
     env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,

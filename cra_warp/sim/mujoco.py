@@ -202,10 +202,15 @@ class MujocoWorld:
         nu = self._base.nu
         self._control64[:, :, :nu] = self.joint_target.unsqueeze(1)
         self._control64[:, :, self._xfrc_base:self._xfrc_base + 6] = self.base_force.unsqueeze(1)
+        # MuJoCo silently resets a world whose state is not finite (to the model's qpos0); keep such a world
+        # non-finite instead, so the task sees it, resets it and counts it, as on Newton
+        broken = ~torch.isfinite(self._state64).all(1)
         rollout.rollout(self._models, self._datas, self._state, self._control, control_spec=_CONTROL,
                         skip_checks=True, nstep=self.cfg.substeps, state=self._out, sensordata=self._sens,
                         persistent_pool=True)
         self._state[:] = self._out[:, -1]
+        if broken.any():
+            self._state64[broken, self._qvel] = float("nan")
         self._publish()
 
     def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,

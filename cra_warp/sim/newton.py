@@ -81,7 +81,9 @@ class NewtonWorld:
         if terrain is not None and cfg.terrain_window is not None:
             self._init_windows(terrain)
         self.graph = None
-        if cfg.capture:
+        # Warp captures graphs on the CPU, and on CUDA only with the stream-ordered memory pool (as Newton's
+        # examples gate it); elsewhere the step launches its kernels one by one.
+        if cfg.capture and (self.device.is_cpu or wp.is_mempool_enabled(self.device)):
             self._simulate()  # warm-up outside the capture: kernels compile and load here
             self.reset()
             with wp.ScopedCapture(device=self.device) as cap:
