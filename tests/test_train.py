@@ -163,3 +163,38 @@ def test_data_parallel_on_cpu_with_torchrun(tmp_path):
     assert out.stdout.count("run directory:") == 1
     run_dir = next(tmp_path.iterdir())
     assert (run_dir / "model_0.pt").is_file()
+
+
+def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, tmp_path, capsys):
+    """config.json and every checkpoint hold the resolved configuration; play/eval/export rebuild from it, not from
+    today's defaults; a checkpoint whose observation layout differs from today's code is refused in one line."""
+    from train.runner import runner_for_checkpoint
+
+    first, _ = trained
+    stored = json.loads((first / "config.json").read_text())
+    ckpt = torch.load(first / "model_1.pt", weights_only=False)
+    assert ckpt["infos"]["config"] == stored
+    assert stored["env"]["world"]["backend"] == "newton" and stored["learner"]["ppo"]["num_learning_epochs"] == 5
+    # a stored setting that differs from today's defaults is what the rebuilt env gets
+    ckpt["infos"]["config"]["env"]["obs"]["yaw_rate_filter_tau"] = 0.35
+    ckpt["infos"]["config"]["learner"]["ppo"]["gamma"] = 0.98
+    odd = tmp_path / "model_odd.pt"
+    torch.save(ckpt, odd)
+    runner, env = runner_for_checkpoint(odd, num_envs=2)
+    assert env.cfg.obs.yaw_rate_filter_tau == 0.35 and runner.alg.gamma == 0.98 and env.num_envs == 2
+    # an actor layout of another version of the code
+    ckpt["infos"]["config"]["layout"]["actor"]["gait_phase"] = [80, 82]
+    torch.save(ckpt, odd)
+    one_line_error(capsys, export_cli.main([str(odd)]), "actor observation layout differs", "gait_phase")
+
+
+def test_the_same_seed_gives_identical_first_iterations(tmp_path):
+    """Two CPU runs with one seed: the same rewards, episode lengths and losses for their first 3 iterations."""
+    histories = []
+    for k in range(2):
+        _, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=3, seed=7, export=False, quiet=True,
+                                                      log_dir=tmp_path / str(k), sim="mujoco"))
+        histories.append(runner.history)
+    keys = ("reward", "episode_s", "infonce_acc")
+    assert [{k: h.get(k) for k in keys} for h in histories[0]] == [{k: h.get(k) for k in keys} for h in histories[1]]
+    assert len(histories[0]) == 3 and "reward" in histories[0][-1]

@@ -89,14 +89,16 @@ def _policies(a: EvalArgs):
     from envs.locomotion import LocoEnv
 
     def stand(num_envs, overrides):
-        env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed, **overrides))
+        env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed, world=world_config(a.sim or "newton"),
+                                 **overrides))
         return env, lambda obs, dones: env.stand_actions()
 
     def checkpoint(path):
         def make(num_envs, overrides):
             from train.runner import runner_for_checkpoint
 
-            runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, seed=a.seed, **overrides)
+            runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, sim=a.sim, seed=a.seed,
+                                                **overrides)
             policy = runner.get_inference_policy(a.device)
 
             def act(obs, dones):
@@ -123,8 +125,6 @@ def run(a: EvalArgs) -> list[dict]:
             torch.manual_seed(a.seed)
             overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
                              episode_length_s=1e6)  # no time-outs: the trial clock is the evaluator's
-            if a.sim is not None:
-                overrides["world"] = world_config(a.sim)
             env, act = make(num_envs, overrides)
             tally = evaluate(env, act, speed)
             c, dep = env.ground.course, env.ground.deployment

@@ -48,21 +48,18 @@ def run(a: PlayArgs) -> dict:
     import torch
 
     from cra_warp.host_memory import keep_freed_memory
-    from cra_warp.sim import WorldConfig
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
     keep_freed_memory()
     overrides = {"terrain": a.task} if a.task else {}
-    if a.usd is not None:  # the viewer draws static shapes once: every world holds the whole course, not a window
-        overrides["world"] = WorldConfig(terrain_window=None)
-    elif a.sim is not None:
-        overrides["world"] = world_config(a.sim)
+    # the viewer draws static shapes once: every world holds the whole course, not a window
+    whole_course = a.usd is not None
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
         from train.runner import runner_for_checkpoint
 
-        runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, seed=a.seed,
-                                            **overrides)
+        runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, sim=a.sim,
+                                            whole_course=whole_course, seed=a.seed, **overrides)
         policy = runner.get_inference_policy(a.device)
 
         def agent(obs):
@@ -71,8 +68,9 @@ def run(a: PlayArgs) -> dict:
         agent.reset = policy.reset
     else:
         overrides.setdefault("terrain", "flat")
+        world = world_config(a.sim or "newton", **({"terrain_window": None} if whole_course else {}))
         env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0], seed=a.seed,
-                                 **overrides))
+                                 world=world, **overrides))
         agent = make_agent(a, env)
     viewer = None
     if a.usd is not None:

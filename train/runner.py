@@ -81,11 +81,17 @@ class CraRunner(OnPolicyRunner):
             torch.distributed.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world_size)
 
 
-def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_overrides):
-    """Rebuild the env and runner a checkpoint was trained with (from the run info it stores) and load it.
+def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str | None = None,
+                          whole_course: bool = False, **env_overrides):
+    """Rebuild the env and runner a checkpoint was trained with and load it. Returns (runner, env).
 
-    Returns (runner, env). Raises CheckpointError (one line) for a missing, foreign or mismatched checkpoint.
+    The checkpoint's stored configuration (env, world, learner) is rebuilt as it was, never from today's defaults;
+    the caller changes only what an evaluation needs: ``num_envs``, ``device``, the simulator (``sim``), every
+    terrain box in every world (``whole_course``, for recording) and LocoConfig fields in ``env_overrides``
+    (terrain, seed, course, randomization, episode_length_s). A checkpoint whose observation layout no longer
+    matches today's code is refused. Raises CheckpointError (one line) for a missing, foreign or mismatched file.
     """
+    from cra_warp.config_io import from_data, to_data
     from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
     from envs.loco_config import LocoConfig
@@ -93,18 +99,39 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", **env_ov
     from train.train import VARIANTS
 
     info = read_checkpoint(path).get("infos") or {}
-    variant, task = info.get("variant", "ours"), info.get("task", "flat")
-    if variant not in VARIANTS:
-        raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
-    env_variant, contrast = VARIANTS[variant]
-    if "world" not in env_overrides:  # the simulator it was trained in, unless the caller chose one
-        from train.train import world_config
-
-        env_overrides["world"] = world_config(info.get("sim", "newton"))
-    env = LocoEnv(LocoConfig(num_envs=num_envs, device=device, variant=env_variant,
-                             terrain=env_overrides.pop("terrain", task), **env_overrides))
-    learner = LearnerConfig()
-    learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
+    stored = info.get("config")
+    try:
+        if stored is not None:
+            env_cfg = from_data(LocoConfig, stored["env"])
+            learner = from_data(LearnerConfig, stored["learner"])
+        else:  # written before runs stored their configuration: variant and task only, today's defaults
+            variant = info.get("variant", "ours")
+            if variant not in VARIANTS:
+                raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
+            env_variant, contrast = VARIANTS[variant]
+            env_cfg = LocoConfig(variant=env_variant, terrain=info.get("task", "flat"))
+            learner = LearnerConfig()
+            learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
+            sim = sim or info.get("sim", "newton")
+        world = env_cfg.world
+        if sim is not None:
+            world = dataclasses.replace(world, backend=sim)
+        if whole_course:
+            world = dataclasses.replace(world, terrain_window=None)
+        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device,
+                                      world=dataclasses.replace(world, device=device), **env_overrides)
+    except (KeyError, TypeError, ValueError) as e:
+        if isinstance(e, CheckpointError):
+            raise
+        raise CheckpointError(f"{path}: its stored configuration cannot be rebuilt ({e})") from e
+    env = LocoEnv(env_cfg)
+    if stored is not None:
+        for group, now in (("actor", env.layout), ("privileged", env.priv_layout)):
+            then, now = stored["layout"][group], to_data(now)
+            if then != now:
+                diff = next(k for k in list(then) + list(now) if then.get(k) != now.get(k))
+                raise CheckpointError(f"{path}: the {group} observation layout differs from today's code at "
+                                      f"{diff!r} ({then.get(diff)} in the checkpoint, {now.get(diff)} now)")
     runner = CraRunner(env, runner_cfg(learner), log_dir=None, device=device, quiet=True, run_info=info)
     load_checkpoint(path, runner)
     return runner, env

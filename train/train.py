@@ -21,6 +21,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from cra_warp.atomic_json import write_json
+
 TASKS = ("flat", "rough")
 SIMS = ("newton", "mujoco")
 VARIANTS = {  # variant -> (env variant, contrast variant)
@@ -106,6 +108,15 @@ def check_device(device: str) -> None:
         raise UsageError(f"--device {device}: no such CUDA device on this machine")
 
 
+def run_config(a: TrainArgs, env, env_cfg, learner) -> dict:
+    """Everything that defines a run, resolved: CLI arguments, env (world, robot-facing task settings) and learner
+    configs, the robot, and the observation layouts the networks were built for."""
+    from cra_warp.config_io import to_data
+
+    return {"args": to_data(a), "env": to_data(env_cfg), "learner": to_data(learner), "robot": to_data(env.robot),
+            "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
+
+
 def seed_everything(seed: int) -> None:
     import numpy as np
     import torch
@@ -133,17 +144,22 @@ def run(a: TrainArgs):
         a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
     env_variant, contrast = VARIANTS[a.variant]
-    env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
-                             seed=a.seed + rank, world=world_config(a.sim)))
+    env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
+                         seed=a.seed + rank, world=world_config(a.sim))
+    env = LocoEnv(env_cfg)
     learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
                                            tau=a.contrast_tau)
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
                                       use_mixed_precision=a.bf16)
     run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
+    config = run_config(a, env, env_cfg, learner)
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
                        quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
-                                                          "sim": a.sim, "bf16": a.bf16})
+                                                "sim": a.sim, "bf16": a.bf16, "config": config})
+    if rank == 0:  # the whole resolved configuration, beside the logs (every checkpoint carries it too)
+        run_dir.mkdir(parents=True, exist_ok=True)
+        write_json(run_dir / "config.json", config, indent=2)
     if a.resume is not None:
         load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it

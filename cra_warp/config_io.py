@@ -1,0 +1,67 @@
+"""Typed configs to plain data and back: a run stores its whole resolved configuration and is rebuilt from it.
+
+``to_data`` turns nested dataclasses into JSON-able dicts (tuples become lists, paths strings); ``from_data``
+rebuilds the dataclass from such a dict, field by field from the type hints, so a stored run never depends on
+today's defaults. Unknown keys are an error that names them (a config written by another version of the code).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import types
+import typing
+from pathlib import Path
+
+
+def to_data(x):
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        return {f.name: to_data(getattr(x, f.name)) for f in dataclasses.fields(x)}
+    if isinstance(x, dict):
+        return {str(k): to_data(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [to_data(v) for v in x]
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, slice):
+        return [x.start, x.stop]
+    return x
+
+
+def _build(tp, value, where: str):
+    if value is None:
+        return None
+    origin = typing.get_origin(tp)
+    if origin in (typing.Union, types.UnionType):
+        options = [a for a in typing.get_args(tp) if a is not type(None)]
+        dcs = [a for a in options if dataclasses.is_dataclass(a)]
+        if dcs and isinstance(value, dict):
+            return from_data(dcs[0], value, where)
+        return _build(options[0], value, where) if len(options) == 1 else value
+    if dataclasses.is_dataclass(tp):
+        return from_data(tp, value, where)
+    if origin is tuple:
+        args = typing.get_args(tp)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_build(args[0], v, where) for v in value)
+        return tuple(_build(a, v, where) for a, v in zip(args, value)) if args else tuple(value)
+    if origin is dict:
+        return dict(value)
+    if origin is list:
+        return list(value)
+    if tp is Path:
+        return Path(value)
+    return value
+
+
+def from_data(cls, data: dict, where: str = ""):
+    """``cls`` (a dataclass) from ``to_data``'s output; ValueError naming any key ``cls`` does not have."""
+    name = where or cls.__name__
+    if not isinstance(data, dict):
+        raise ValueError(f"{name}: expected a mapping, got {type(data).__name__}")
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise ValueError(f"{name} has no field(s) {unknown} (a config from another version of the code?)")
+    hints = typing.get_type_hints(cls)
+    kwargs = {k: _build(hints[k], v, f"{name}.{k}") for k, v in data.items() if fields[k].init}
+    return cls(**kwargs)
