@@ -46,6 +46,7 @@ class LocoEnv(VecEnv):
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
         self.stand = ScriptedStand(robot, self.device)
+        self._all_ids = torch.arange(N, device=self.device)
         d = dict(device=self.device)
 
         # constants [J] / index sets
@@ -152,7 +153,7 @@ class LocoEnv(VecEnv):
         extras["log"]["/nonfinite_resets"] = float(self.nonfinite_resets)
         if self.world.windows is not None:  # terrain boxes left out of a full window (none on our courses)
             extras["log"]["/terrain_window_overflows"] = float(self.world.windows.overflows)
-        self._resample_commands((self.command_timer <= 0).nonzero().flatten())
+        self._resample_commands(self.command_timer <= 0)
         self._heading_control()  # the yaw-rate command observed now is the one the next step's reward tracks
         self.obs = self._observations()
         return self.obs, rew, dones.long(), extras
@@ -297,7 +298,10 @@ class LocoEnv(VecEnv):
         return lo + (hi - lo) * torch.rand(*shape, device=self.device, generator=self.gen)
 
     def _resample_commands(self, ids: torch.Tensor):
-        n = len(ids)
+        """New commands for the envs ``ids``: indices [n], or a mask [N] (drawn for all, kept where set: no host
+        sync in the step)."""
+        masked = ids.dtype == torch.bool
+        n = self.num_envs if masked else len(ids)
         if n == 0:
             return
         c = self.cfg.commands
@@ -305,10 +309,16 @@ class LocoEnv(VecEnv):
                            self._uniform(*c.ang_vel_yaw, n)], -1)
         cmd[:, :2] *= (cmd[:, :2].norm(dim=-1, keepdim=True) >= c.min_speed)
         standing = torch.rand(n, device=self.device, generator=self.gen) < c.standing_fraction
-        cmd[standing] = 0.0
-        self.commands[ids] = cmd
-        self.heading[ids] = self._uniform(-math.pi, math.pi, n)
-        self.command_timer[ids] = c.resample_time
+        cmd = torch.where(standing.unsqueeze(-1), 0.0, cmd)
+        heading = self._uniform(-math.pi, math.pi, n)
+        if masked:
+            self.commands.copy_(torch.where(ids.unsqueeze(-1), cmd, self.commands))
+            self.heading.copy_(torch.where(ids, heading, self.heading))
+            self.command_timer.masked_fill_(ids, c.resample_time)
+        else:
+            self.commands[ids] = cmd
+            self.heading[ids] = heading
+            self.command_timer[ids] = c.resample_time
 
     def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
@@ -339,20 +349,20 @@ class LocoEnv(VecEnv):
         self.commanded_dist += self.commands[:, :2].norm(dim=-1) * self.dt
         if not rd.enabled:
             return
+        # masked updates (drawn for every env, applied where due): no host sync in the step
+        N = self.num_envs
         self.push_timer -= self.dt
-        push = (self.push_timer <= 0).nonzero().flatten()
-        if len(push):
-            n = len(push)
-            angle = self._uniform(-math.pi, math.pi, n)
-            speed = self._uniform(0.0, rd.push_max_vel, n)
-            dv = torch.stack([speed * torch.cos(angle), speed * torch.sin(angle), torch.zeros_like(speed)], -1)
-            self.world.apply_impulse(push, dv)
-            self.push_timer[push] = rd.push_interval
+        push = self.push_timer <= 0
+        angle = self._uniform(-math.pi, math.pi, N)
+        speed = self._uniform(0.0, rd.push_max_vel, N) * push
+        dv = torch.stack([speed * torch.cos(angle), speed * torch.sin(angle), torch.zeros_like(speed)], -1)
+        self.world.apply_impulse(self._all_ids, dv)
+        self.push_timer.masked_fill_(push, rd.push_interval)
         self.force_timer -= self.dt
-        fid = (self.force_timer <= 0).nonzero().flatten()
-        if len(fid):
-            self.world.base_force[fid, :3] = self._uniform(-rd.force_max, rd.force_max, len(fid), 3)
-            self.force_timer[fid] = rd.force_interval
+        shove = (self.force_timer <= 0).unsqueeze(-1)
+        force = self._uniform(-rd.force_max, rd.force_max, N, 3)
+        self.world.base_force[:, :3] = torch.where(shove, force, self.world.base_force[:, :3])
+        self.force_timer.masked_fill_(shove.squeeze(-1), rd.force_interval)
         over = self.force_timer < rd.force_interval - rd.force_duration
         self.world.base_force[:, :3] *= ~over.unsqueeze(-1)
 
