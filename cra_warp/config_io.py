@@ -53,6 +53,22 @@ def _build(tp, value, where: str):
     return value
 
 
+def with_overrides(cfg, overrides: dict[str, object]):
+    """A copy of dataclass ``cfg`` with dotted-path values replaced, e.g. {"rewards.weights.contact_momentum": -1e-4,
+    "obs.noise": False}; ValueError naming a path that does not exist."""
+    data = to_data(cfg)
+    for path, value in overrides.items():
+        node, keys = data, path.split(".")
+        for k in keys[:-1]:
+            if not isinstance(node, dict) or k not in node:
+                raise ValueError(f"{path}: no {k!r} in {type(cfg).__name__}")
+            node = node[k]
+        if not isinstance(node, dict) or keys[-1] not in node:
+            raise ValueError(f"{path}: no {keys[-1]!r} in {type(cfg).__name__}")
+        node[keys[-1]] = to_data(value)
+    return from_data(type(cfg), data)
+
+
 def from_data(cls, data: dict, where: str = ""):
     """``cls`` (a dataclass) from ``to_data``'s output; ValueError naming any key ``cls`` does not have."""
     name = where or cls.__name__

@@ -25,6 +25,8 @@ from train import train as train_cli
     (["--contrast-weight", "nan"], "--contrast-weight"),
     (["--contrast-tau", "0"], "--contrast-tau"),
     (["--sim", "bullet"], "--sim"),
+    (["--override", "rewards.weights"], "PATH=VALUE"),
+    (["--override", "rewards.no_such_field=1", "--max-iterations", "1"], "no_such_field"),
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
@@ -198,3 +200,12 @@ def test_the_same_seed_gives_identical_first_iterations(tmp_path):
     keys = ("reward", "episode_s", "infonce_acc")
     assert [{k: h.get(k) for k in keys} for h in histories[0]] == [{k: h.get(k) for k in keys} for h in histories[1]]
     assert len(histories[0]) == 3 and "reward" in histories[0][-1]
+
+
+def test_overrides_reach_the_env_and_the_stored_config(tmp_path):
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(
+        num_envs=4, max_iterations=1, export=False, quiet=True, log_dir=tmp_path, sim="mujoco",
+        override=("rewards.weights.contact_momentum=-4.4e-5", "obs.yaw_rate_filter_tau=0.3")))
+    assert runner.env.cfg.rewards.weights["contact_momentum"] == -4.4e-5
+    assert runner.env.cfg.obs.yaw_rate_filter_tau == 0.3
+    assert json.loads((run_dir / "config.json").read_text())["env"]["obs"]["yaw_rate_filter_tau"] == 0.3

@@ -49,6 +49,8 @@ class TrainArgs:
     epochs: int = 5                    # PPO epochs per iteration (3: ~40% less update time, see tools/bench_learner.py)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
     bf16: bool = False                 # bf16 autocast in the PPO update (AMX CPUs, recent GPUs)
+    # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false
+    override: tuple[str, ...] = ()
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
     contrast_tau: float = 0.1          # InfoNCE temperature
     export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
@@ -79,10 +81,27 @@ def validate(a: TrainArgs) -> None:
     if not finite or a.contrast_weight < 0 or a.contrast_tau <= 0:
         raise UsageError(f"--contrast-weight must be >= 0 and --contrast-tau > 0, got {a.contrast_weight}, "
                          f"{a.contrast_tau}")
+    parse_overrides(a.override)
     if a.resume is not None and not a.resume.is_file():
         raise UsageError(f"--resume {a.resume}: no such file")
     check_sim(a.sim, a.device)
     check_device(a.device)
+
+
+def parse_overrides(items: tuple[str, ...]) -> dict[str, object]:
+    """--override PATH=VALUE items -> {path: value}; VALUE is JSON (a bare word is a string)."""
+    import json
+
+    out = {}
+    for item in items:
+        path, sep, text = item.partition("=")
+        if not sep or not path:
+            raise UsageError(f"--override expects PATH=VALUE, got {item!r}")
+        try:
+            out[path] = json.loads(text)
+        except json.JSONDecodeError:
+            out[path] = text
+    return out
 
 
 def check_sim(sim: str | None, device: str) -> None:
@@ -130,6 +149,7 @@ def run(a: TrainArgs):
     """Train as the arguments say; returns (run directory, runner)."""
     import torch
 
+    from cra_warp.config_io import with_overrides
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
@@ -146,6 +166,11 @@ def run(a: TrainArgs):
     env_variant, contrast = VARIANTS[a.variant]
     env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
                          seed=a.seed + rank, world=world_config(a.sim))
+    if a.override:
+        try:
+            env_cfg = with_overrides(env_cfg, parse_overrides(a.override))
+        except (ValueError, TypeError) as e:
+            raise UsageError(f"--override: {e}") from e
     env = LocoEnv(env_cfg)
     learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
