@@ -27,10 +27,24 @@ def to_data(x):
     return x
 
 
+def _scalar(tp, value, where: str):
+    ok = {bool: isinstance(value, bool), int: isinstance(value, int) and not isinstance(value, bool),
+          float: isinstance(value, (int, float)) and not isinstance(value, bool), str: isinstance(value, str)}[tp]
+    if not ok:
+        raise ValueError(f"{where} must be a {tp.__name__}, got {value!r}")
+    return float(value) if tp is float else value
+
+
 def _build(tp, value, where: str):
     if value is None:
         return None
+    if tp in (bool, int, float, str):
+        return _scalar(tp, value, where)
     origin = typing.get_origin(tp)
+    if origin is typing.Literal:
+        if value not in typing.get_args(tp):
+            raise ValueError(f"{where} must be one of {typing.get_args(tp)}, got {value!r}")
+        return value
     if origin in (typing.Union, types.UnionType):
         options = [a for a in typing.get_args(tp) if a is not type(None)]
         dcs = [a for a in options if dataclasses.is_dataclass(a)]
@@ -41,8 +55,12 @@ def _build(tp, value, where: str):
         return from_data(tp, value, where)
     if origin is tuple:
         args = typing.get_args(tp)
+        if not isinstance(value, (list, tuple)):
+            raise ValueError(f"{where} must be a list, got {value!r}")
         if len(args) == 2 and args[1] is Ellipsis:
             return tuple(_build(args[0], v, where) for v in value)
+        if args and len(args) != len(value):
+            raise ValueError(f"{where} must have {len(args)} entries, got {len(value)}")
         return tuple(_build(a, v, where) for a, v in zip(args, value)) if args else tuple(value)
     if origin is dict:
         return dict(value)

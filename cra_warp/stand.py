@@ -50,7 +50,7 @@ class ScriptedStand:
         q_star = torch.where(self._driven, q + self._stiff * (q_ref - q) - self._damp * qd, q_ref.expand_as(q)).clone()
         if len(self._ankles):
             feet = [world.body_index[n] for n in self._foot_links]
-            soles = world.body_pos[:, feet] + quat_rotate(world.body_quat[:, feet], self._sole.expand(len(q), 2, 3))
+            soles = world.body_pos[:, feet] + quat_rotate(world.body_quat[:, feet], self._sole)
             com, com_vel = world.com()
             heading = yaw_quat(yaw(world.root_quat))
             e = quat_rotate_inv(heading, com - soles.mean(1))[:, 0]          # [N] CoM ahead of the soles [m]

@@ -275,6 +275,7 @@ class LocoEnv(VecEnv):
         if yaw0 is None:
             yaw0 = (2 * torch.rand(n, device=self.device, generator=self.gen) - 1) * math.pi
         q[:, 3:7] = yaw_quat(yaw0)
+        self.randomize_physics(ids)  # before the state: a backend derives the reset state's CoM from them
         self.world.reset(ids, joint_q=q)
         self.start_xy[ids] = origins[:, :2]
         self.commanded_dist[ids] = 0.0
@@ -289,7 +290,6 @@ class LocoEnv(VecEnv):
         self.push_timer[ids] = rd.push_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.force_timer[ids] = rd.force_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.clock.reset(ids)
-        self.randomize_physics(ids)  # every episode meets new physics (one solver update per step, not per env)
         for s in self.episode_sums.values():
             s[ids] = 0.0
         self._resample_commands(ids)

@@ -432,7 +432,7 @@ def stand_run():
     world.reset(joint_q=torch.stack(s.rows))
     q_ref = torch.stack(s.targets)
     stand = ScriptedStand(R)
-    m, d = world.solver.mjw_model, world.solver.mjw_data
+    d = world.solver.mjw_data
     rel, pen, upright, ncon, nefc = [], [], [], 0, 0
     xy0 = world.root_pos[:, :2].clone()
     slide = None

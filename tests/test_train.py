@@ -27,6 +27,9 @@ from train import train as train_cli
     (["--sim", "bullet"], "--sim"),
     (["--override", "rewards.weights"], "PATH=VALUE"),
     (["--override", "rewards.no_such_field=1", "--max-iterations", "1"], "no_such_field"),
+    (["--override", "obs.noise=False", "--max-iterations", "1"], "obs.noise must be a bool"),
+    (["--override", "world.contacts=bogus", "--max-iterations", "1"], "world.contacts must be one of"),
+    (["--override", "randomization.mass_scale=[0.9,1.1,1.3]", "--max-iterations", "1"], "must have 2 entries"),
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
@@ -188,6 +191,11 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     ckpt["infos"]["config"]["layout"]["actor"]["gait_phase"] = [80, 82]
     torch.save(ckpt, odd)
     one_line_error(capsys, export_cli.main([str(odd)]), "actor observation layout differs", "gait_phase")
+    # a robot retuned since (gains): the policy would run on another actuator
+    ckpt["infos"]["config"] = json.loads(json.dumps(stored))
+    ckpt["infos"]["config"]["robot"]["kp"][4] = 500.0
+    torch.save(ckpt, odd)
+    one_line_error(capsys, export_cli.main([str(odd)]), "robot's kp differs")
 
 
 def test_the_same_seed_gives_identical_first_iterations(tmp_path):

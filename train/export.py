@@ -24,10 +24,10 @@ def deploy_metadata(env) -> dict:
     """Everything a deploy program needs besides the network to rebuild the observation, the gait clock and the PD
     loop, without reading our code (cra_warp.learning.export does not import the task, so the task says it here)."""
     robot, cfg, o, w = env.robot, env.cfg, env.cfg.obs, env.cfg.world
-    J = robot.num_joints
     gait = dataclasses.asdict(cfg.gait) if cfg.uses_clock else None
     observation = {
-        "command": f"[vx, vy] [m/s] in the base's heading (yaw-only) frame, yaw rate [rad/s]; times {list(o.command_scale)}",
+        "command": (f"the commanded base velocity: [vx, vy] [m/s] and yaw rate [rad/s] in the base (pelvis) frame "
+                    f"(what the reward tracks), times {list(o.command_scale)}"),
         "gravity": "unit gravity direction in the base (pelvis) frame: R_base^T (0, 0, -1)",
         "joint_pos": "q - default_q [rad], joint order",
         "joint_vel": f"qd [rad/s] times {o.joint_vel_scale}",
@@ -37,8 +37,9 @@ def deploy_metadata(env) -> dict:
                           f"y += a (wz - y), a = control_dt / (tau + control_dt), tau {o.yaw_rate_filter_tau} s; "
                           "y = 0 at episode start"),
         "gait_phase": ("sin, cos of 2 pi phi / cycle_time; phi [s] starts at 0 and before each control step's physics "
-                       "phi = (phi + max(1 + alpha d0, 0) control_dt) mod cycle_time, with (d0, d1, d2) = beta_scale "
-                       "x the clipped gait actions of that step"),
+                       "phi = (phi + max(1 + alpha d0, 0) control_dt) mod cycle_time, with (d0, d1, d2) = "
+                       + ("beta_scale x the clipped gait actions of that step" if cfg.variant == "adaptive" else
+                          "0 (this variant ignores its gait actions: the clock runs at cycle_time)")),
         "clip": o.clip,
         "order": "obs_t is built after the physics of step t-1; a_t = policy(obs_t); then the clock advances with a_t, "
                  "the PD targets are set and the physics runs",

@@ -58,7 +58,8 @@ def run(a: PlayArgs) -> dict:
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
         from train.runner import runner_for_checkpoint
 
-        runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, sim=a.sim,
+        sim = "newton" if whole_course else a.sim  # USD recording draws Newton's state
+        runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, sim=sim,
                                             whole_course=whole_course, seed=a.seed, **overrides)
         policy = runner.get_inference_policy(a.device)
 

@@ -113,7 +113,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
             learner = LearnerConfig()
             learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
             sim = sim or info.get("sim", "newton")
-        world = env_cfg.world
+        world = dataclasses.replace(env_cfg.world, threads=0)  # rollout threads: this machine's, not the run's
         if sim is not None:
             world = dataclasses.replace(world, backend=sim)
         if whole_course:
@@ -126,12 +126,33 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
         raise CheckpointError(f"{path}: its stored configuration cannot be rebuilt ({e})") from e
     env = LocoEnv(env_cfg)
     if stored is not None:
-        for group, now in (("actor", env.layout), ("privileged", env.priv_layout)):
-            then, now = stored["layout"][group], to_data(now)
-            if then != now:
-                diff = next(k for k in list(then) + list(now) if then.get(k) != now.get(k))
-                raise CheckpointError(f"{path}: the {group} observation layout differs from today's code at "
-                                      f"{diff!r} ({then.get(diff)} in the checkpoint, {now.get(diff)} now)")
+        _check_against_today(path, stored, env)
     runner = CraRunner(env, runner_cfg(learner), log_dir=None, device=device, quiet=True, run_info=info)
     load_checkpoint(path, runner)
     return runner, env
+
+
+# What a policy was trained against that today's code also defines: the robot's actuation and pose, and the
+# observation layouts. A difference means the policy would run on another robot or read shifted inputs.
+ROBOT_FIELDS = ("joint_names", "default_q", "kp", "kd", "effort_limit", "action_scale", "armature")
+
+
+def _check_against_today(path, stored: dict, env) -> None:
+    from cra_warp.config_io import to_data
+    from cra_warp.learning.checkpoint import CheckpointError
+
+    try:
+        robot, layouts = stored["robot"], stored["layout"]
+    except KeyError as e:
+        raise CheckpointError(f"{path}: its stored configuration lacks {e}") from e
+    today = to_data(env.robot)
+    for k in ROBOT_FIELDS:
+        if robot.get(k) != today[k]:
+            raise CheckpointError(f"{path}: the robot's {k} differs from today's config ({robot.get(k)} in the "
+                                  f"checkpoint, {today[k]} now)")
+    for group, now in (("actor", env.layout), ("privileged", env.priv_layout)):
+        then, now = layouts[group], to_data(now)
+        if then != now:
+            diff = next(k for k in list(then) + list(now) if then.get(k) != now.get(k))
+            raise CheckpointError(f"{path}: the {group} observation layout differs from today's code at "
+                                  f"{diff!r} ({then.get(diff)} in the checkpoint, {now.get(diff)} now)")

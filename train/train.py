@@ -163,9 +163,13 @@ def run(a: TrainArgs):
     if a.device.startswith("cuda") and int(os.getenv("WORLD_SIZE", "1")) > 1:  # torchrun: one GPU per rank
         a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
+    # the cores this process may run on (taskset / cgroup cpusets), shared among the data-parallel processes:
+    # the learner's torch threads and the MuJoCo backend's rollout threads
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    threads = max(1, cores // int(os.getenv("WORLD_SIZE", "1")))
     env_variant, contrast = VARIANTS[a.variant]
     env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
-                         seed=a.seed + rank, world=world_config(a.sim))
+                         seed=a.seed + rank, world=world_config(a.sim, threads=threads))
     if a.override:
         try:
             env_cfg = with_overrides(env_cfg, parse_overrides(a.override))
@@ -188,9 +192,7 @@ def run(a: TrainArgs):
     if a.resume is not None:
         load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
-    # the cores this process may run on (taskset / cgroup cpusets), shared among the data-parallel processes
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    torch.set_num_threads(max(1, cores // int(os.getenv("WORLD_SIZE", "1"))))
+    torch.set_num_threads(threads)
     runner.learn(a.max_iterations)
     if rank == 0 and a.export:
         export_run(runner, env, run_dir / "exported")

@@ -4,7 +4,9 @@ A backend (cra_warp.sim.newton, cra_warp.sim.mujoco) implements :class:`World`; 
 else of it. Conventions at this boundary: positions in metres, world frame z up; quaternions xyzw; body twists
 (linear velocity of the CoM, angular velocity) in the world frame; driven joints in the robot config's order;
 float32 torch tensors on the world's device. The actuator law is the robot's explicit PD,
-tau = clamp(kp (q* - q) - kd qd, +-effort), evaluated at every physics step in every backend.
+tau = clamp(kp (q* - q) - kd qd, +-effort), evaluated at every physics step (WorldConfig.integrator "euler", the
+default, in both backends). Body quantities (body_*, com(), foot_forces, joint_torque) are those of the last physics
+step: Newton evaluates the bodies at the new state, MuJoCo's sensors at the start of that step (5 ms earlier).
 This module imports no simulator.
 """
 
@@ -82,7 +84,7 @@ class TerrainBoxes:
 
 
 class World(Protocol):
-    """N robots on static terrain. Views ([N, ...] torch tensors, read the sim's current state; writing into
+    """N robots on static terrain. Views ([N, ...] torch tensors of the sim's current state; writing into
     ``joint_target``, ``base_force`` or the state views reaches the sim at the next ``step()``):
 
       joint_q [N, 7 + J] (base position, base quaternion xyzw, joint positions), joint_qd [N, 6 + J] (base CoM

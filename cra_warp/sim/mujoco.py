@@ -61,14 +61,15 @@ class MujocoWorld:
         J, F = robot.num_joints, len(robot.foot_links)
         xml = NewtonWorld.mjcf(robot, cfg, terrain)
         prefix = f"{robot.name}_"
-        self._body_names = [b for b in re.findall(r'<body name="([^"]+)"', xml)]
+        self._body_names = re.findall(r'<body name="([^"]+)"', xml)
         names = [b[len(prefix):] for b in self._body_names]
         self.num_bodies = B = len(names)
         self.body_index = {n: i for i, n in enumerate(names)}
         base = mujoco.MjModel.from_xml_string(self._with_sensors(xml, prefix))
         base.opt.timestep = cfg.sim_dt  # Newton passes dt per step; its MJCF leaves the default
         joints = [base.joint(j + 1).name[len(prefix):] for j in range(base.njnt - 1)]
-        if tuple(joints) != robot.joint_names or base.nu != J or base.nq != FREE_Q + J:
+        actuated = [int(base.actuator_trnid[a, 0]) for a in range(base.nu)]
+        if tuple(joints) != robot.joint_names or actuated != list(range(1, J + 1)) or base.nq != FREE_Q + J:
             raise ValueError(f"{robot.name}: the MuJoCo model's joints {joints} are not the config's {robot.joint_names}")
         self._base = base
         self._models = [copy.copy(base) for _ in range(N)]
@@ -76,7 +77,6 @@ class MujocoWorld:
         self._datas = [mujoco.MjData(base) for _ in range(threads)]
         self._body_ids = np.array([base.body(n).id for n in self._body_names])           # [B] MuJoCo body ids
         self._robot_geoms = np.flatnonzero(base.geom_bodyid > 0)                          # robot geoms (not world)
-        self._actuated_dofs = np.arange(FREE_QD, FREE_QD + J)
 
         # float64 MuJoCo buffers (rollout reads and writes them) and their torch aliases
         nstate = mujoco.mj_stateSize(base, _STATE)
@@ -87,14 +87,14 @@ class MujocoWorld:
         self._state64 = torch.from_numpy(self._state)
         self._sens64 = torch.from_numpy(self._sens)
         self._control64 = torch.from_numpy(self._control)
-        q0 = 1 + 0  # TIME comes first
-        self._qpos = slice(q0, q0 + base.nq)
+        self._qpos = slice(1, 1 + base.nq)  # the state starts with the time
         self._qvel = slice(self._qpos.stop, self._qpos.stop + base.nv)
         self._xfrc_base = base.nu + 6 * int(self._body_ids[0])  # external wrench slot of the base body
 
         # float32 views in the interface's conventions
         f32 = dict(dtype=torch.float32)
         self.joint_q, self.joint_qd = torch.zeros(N, FREE_Q + J, **f32), torch.zeros(N, FREE_QD + J, **f32)
+        self._published_q, self._published_qd = self.joint_q.clone(), self.joint_qd.clone()
         self.root_pos, self.root_quat = self.joint_q[:, 0:3], self.joint_q[:, 3:7]
         self.root_lin_vel, self.root_ang_vel = self.joint_qd[:, 0:3], self.joint_qd[:, 3:6]
         self.joint_pos, self.joint_vel = self.joint_q[:, FREE_Q:], self.joint_qd[:, FREE_QD:]
@@ -173,7 +173,8 @@ class MujocoWorld:
         self.foot_forces[ids] = -s[:, self._s_feet].view(-1, len(self.robot.foot_links), 3).float()  # on the foot
         self.joint_torque[ids] = s[:, self._s_torque].float()
         self._com[ids] = s[:, self._s_com].float()
-        self._published_q, self._published_qd = self.joint_q.clone(), self.joint_qd.clone()
+        self._published_q[ids] = self.joint_q[ids]     # what the sim holds: a later change is a write to push
+        self._published_qd[ids] = self.joint_qd[ids]
 
     def _write_back(self, rows: torch.Tensor):
         """The float32 views of worlds ``rows`` -> their float64 MuJoCo state (inverse of _publish)."""
@@ -202,13 +203,16 @@ class MujocoWorld:
         nu = self._base.nu
         self._control64[:, :, :nu] = self.joint_target.unsqueeze(1)
         self._control64[:, :, self._xfrc_base:self._xfrc_base + 6] = self.base_force.unsqueeze(1)
-        # MuJoCo silently resets a world whose state is not finite (to the model's qpos0); keep such a world
-        # non-finite instead, so the task sees it, resets it and counts it, as on Newton
+        # MuJoCo silently resets a world whose state is not finite, or turns so during the step (to the model's
+        # qpos0, time 0); keep such a world non-finite instead, so the task sees it, resets it and counts it, as on
+        # Newton. Time is state column 0: a reset world's clock ends short of start + one env step.
         broken = ~torch.isfinite(self._state64).all(1)
+        t_end = self._state64[:, 0] + 0.5 * self.cfg.env_dt
         rollout.rollout(self._models, self._datas, self._state, self._control, control_spec=_CONTROL,
                         skip_checks=True, nstep=self.cfg.substeps, state=self._out, sensordata=self._sens,
                         persistent_pool=True)
         self._state[:] = self._out[:, -1]
+        broken |= self._state64[:, 0] < t_end
         if broken.any():
             self._state64[broken, self._qvel] = float("nan")
         self._publish()

@@ -9,8 +9,6 @@ Nothing here loops over worlds in Python.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 import torch
@@ -25,6 +23,7 @@ from cra_warp.rotations import quat_rotate
 from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
 from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows
 from robots.robot_config import RobotConfig, robot_urdf_text
+
 
 class NewtonWorld:
     """A batched Newton world of ``cfg.num_envs`` robots.
