@@ -108,7 +108,7 @@ def end_to_end(num_envs: int, iterations: int, processes: int, sim: str = "newto
     """cra-train flat for ``iterations``; the first iteration (warm-up) is left out of the means."""
     with tempfile.TemporaryDirectory() as logs:
         args = ["--num-envs", str(num_envs // processes), "--max-iterations", str(iterations), "--log-dir", logs,
-                "--no-export", "--save-interval", str(10**6), "--sim", sim, *(["--bf16"] if bf16 else [])]
+                "--no-export", "--save-interval", str(10**6), "--sim", sim, "--bf16" if bf16 else "--no-bf16"]
         if processes == 1:
             cmd = [sys.executable, "-m", "train.train", *args]
         else:

@@ -46,9 +46,9 @@ class TrainArgs:
     resume: Path | None = None         # checkpoint to continue from (iteration count and optimizer state)
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
-    epochs: int = 5                    # PPO epochs per iteration (3: ~40% less update time, see tools/bench_learner.py)
+    epochs: int = 3                    # PPO epochs per iteration (3: tools/results/ab_epochs.json)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
-    bf16: bool = False                 # bf16 autocast in the PPO update (AMX CPUs, recent GPUs)
+    bf16: bool = True                  # bf16 autocast in the PPO update (AMX CPUs, Ampere+ GPUs); --no-bf16: fp32
     # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false
     override: tuple[str, ...] = ()
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
