@@ -217,3 +217,33 @@ def test_overrides_reach_the_env_and_the_stored_config(tmp_path):
     assert runner.env.cfg.rewards.weights["contact_momentum"] == -4.4e-5
     assert runner.env.cfg.obs.yaw_rate_filter_tau == 0.3
     assert json.loads((run_dir / "config.json").read_text())["env"]["obs"]["yaw_rate_filter_tau"] == 0.3
+
+
+@pytest.mark.slow
+def test_kill_9_mid_training_loses_at_most_one_save_interval(tmp_path):
+    """cra-train killed with SIGKILL while it trains and checkpoints every iteration: every checkpoint left is whole
+    (written to a temp file, then renamed), and --resume continues after the newest."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    logs = tmp_path / "runs"
+    cmd = [sys.executable, "-m", "train.train", "--num-envs", "4", "--sim", "mujoco", "--save-interval", "1",
+           "--max-iterations", "200", "--no-export", "--quiet", "--log-dir", str(logs)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while time.time() < deadline and len(list(logs.rglob("model_*.pt"))) < 4:
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    saved = sorted(logs.rglob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
+    assert len(saved) >= 4, "the run never got to its fourth checkpoint"
+    for p in saved:
+        assert torch.load(p, weights_only=False)["iter"] == int(p.stem.split("_")[1])  # none torn
+    newest = saved[-1]
+    assert train_cli.main(["--num-envs", "4", "--sim", "mujoco", "--resume", str(newest), "--max-iterations", "1",
+                           "--no-export", "--quiet", "--log-dir", str(tmp_path / "resumed")]) == 0
+    resumed = next((tmp_path / "resumed").rglob("model_*.pt"))
+    assert torch.load(resumed, weights_only=False)["iter"] == int(newest.stem.split("_")[1]) + 1
