@@ -8,6 +8,7 @@ today's defaults. Unknown keys are an error that names them (a config written by
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from pathlib import Path
@@ -30,17 +31,20 @@ def to_data(x):
 def _scalar(tp, value, where: str):
     ok = {bool: isinstance(value, bool), int: isinstance(value, int) and not isinstance(value, bool),
           float: isinstance(value, (int, float)) and not isinstance(value, bool), str: isinstance(value, str)}[tp]
-    if not ok:
-        raise ValueError(f"{where} must be a {tp.__name__}, got {value!r}")
+    if not ok or (tp is float and not math.isfinite(value)):
+        raise ValueError(f"{where} must be a {'finite ' if tp is float else ''}{tp.__name__}, got {value!r}")
     return float(value) if tp is float else value
 
 
 def _build(tp, value, where: str):
+    origin = typing.get_origin(tp)
+    optional = origin in (typing.Union, types.UnionType) and type(None) in typing.get_args(tp)
     if value is None:
-        return None
+        if optional:
+            return None
+        raise ValueError(f"{where} must not be null")
     if tp in (bool, int, float, str):
         return _scalar(tp, value, where)
-    origin = typing.get_origin(tp)
     if origin is typing.Literal:
         if value not in typing.get_args(tp):
             raise ValueError(f"{where} must be one of {typing.get_args(tp)}, got {value!r}")
@@ -63,7 +67,10 @@ def _build(tp, value, where: str):
             raise ValueError(f"{where} must have {len(args)} entries, got {len(value)}")
         return tuple(_build(a, v, where) for a, v in zip(args, value)) if args else tuple(value)
     if origin is dict:
-        return dict(value)
+        if not isinstance(value, dict):
+            raise ValueError(f"{where} must be a mapping, got {value!r}")
+        key_t, val_t = typing.get_args(tp) or (str, object)
+        return {k: _build(val_t, v, f"{where}.{k}") if val_t is not object else v for k, v in value.items()}
     if origin is list:
         return list(value)
     if tp is Path:

@@ -30,6 +30,8 @@ from train import train as train_cli
     (["--override", "obs.noise=False", "--max-iterations", "1"], "obs.noise must be a bool"),
     (["--override", "world.contacts=bogus", "--max-iterations", "1"], "world.contacts must be one of"),
     (["--override", "randomization.mass_scale=[0.9,1.1,1.3]", "--max-iterations", "1"], "must have 2 entries"),
+    (["--override", "obs.noise=null", "--max-iterations", "1"], "must not be null"),
+    (["--override", "rewards.weights.contact_momentum=abc", "--max-iterations", "1"], "must be a finite float"),
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
@@ -196,6 +198,9 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     ckpt["infos"]["config"]["robot"]["kp"][4] = 500.0
     torch.save(ckpt, odd)
     one_line_error(capsys, export_cli.main([str(odd)]), "robot's kp differs")
+    one_line_error(capsys, train_cli.main(["--num-envs", "4", "--resume", str(odd), "--max-iterations", "1",
+                                           "--no-export", "--quiet", "--log-dir", str(tmp_path / "r")]),
+                   "robot's kp differs")
 
 
 def test_the_same_seed_gives_identical_first_iterations(tmp_path):
@@ -234,7 +239,7 @@ def test_kill_9_mid_training_loses_at_most_one_save_interval(tmp_path):
            "--max-iterations", "200", "--no-export", "--quiet", "--log-dir", str(logs)]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 300
-    while time.time() < deadline and len(list(logs.rglob("model_*.pt"))) < 4:
+    while time.time() < deadline and proc.poll() is None and len(list(logs.rglob("model_*.pt"))) < 4:
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()

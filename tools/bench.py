@@ -291,7 +291,7 @@ def start_times(num_envs: int, device: str, cold: bool) -> dict:
     spec = {"kind": "world", "backend": "newton", "terrain": "flat", "num_envs": num_envs, "device": device,
             "seconds": 0.0,
             "min_steps": 1, "warmup": 0}
-    cold_s = float("nan")
+    cold_s = None  # not measured (--no-cold); JSON null
     if cold:
         with tempfile.TemporaryDirectory() as cache:
             cold_s = _run_workers([spec], env={**os.environ, "WARP_CACHE_PATH": cache})[0]["start_s"]
@@ -313,7 +313,8 @@ def print_table(records: list[dict]) -> None:
               f"{r['peak_rss_mb']:8.0f} {r['peak_rss_mb'] / r['num_envs']:7.3f} {r['standing']:8.2f} {ratio}")
     for r in records:
         if r.get("kind") == "start":
-            print(f"Newton world start, N={r['num_envs']}: cold {r['cold_start_s']:.1f} s (empty kernel cache), "
+            cold = f"{r['cold_start_s']:.1f} s" if r["cold_start_s"] is not None else "not measured"
+            print(f"Newton world start, N={r['num_envs']}: cold {cold} (empty kernel cache), "
                   f"warm {r['warm_start_s']:.1f} s")
     for r in records:
         if r["engine"] == "learner":

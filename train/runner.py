@@ -134,7 +134,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
 
 # What a policy was trained against that today's code also defines: the robot's actuation and pose, and the
 # observation layouts. A difference means the policy would run on another robot or read shifted inputs.
-ROBOT_FIELDS = ("joint_names", "default_q", "kp", "kd", "effort_limit", "action_scale", "armature")
+ROBOT_FIELDS = ("joint_names", "default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper",
+                "action_scale", "armature")
 
 
 def _check_against_today(path, stored: dict, env) -> None:
@@ -143,7 +144,8 @@ def _check_against_today(path, stored: dict, env) -> None:
 
     try:
         robot, layouts = stored["robot"], stored["layout"]
-    except KeyError as e:
+        layouts = {g: layouts[g] for g in ("actor", "privileged")}
+    except (KeyError, TypeError) as e:
         raise CheckpointError(f"{path}: its stored configuration lacks {e}") from e
     today = to_data(env.robot)
     for k in ROBOT_FIELDS:

@@ -48,7 +48,7 @@ class TrainArgs:
     save_interval: int = 20            # iterations between checkpoints
     epochs: int = 3                    # PPO epochs per iteration (3: tools/results/ab_epochs.json)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
-    bf16: bool = True                  # bf16 autocast in the PPO update (AMX CPUs, Ampere+ GPUs); --no-bf16: fp32
+    bf16: bool = True                  # bf16 autocast in the PPO update where the device has native bf16; --no-bf16
     # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false
     override: tuple[str, ...] = ()
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
@@ -136,6 +136,23 @@ def run_config(a: TrainArgs, env, env_cfg, learner) -> dict:
             "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
 
 
+def check_resume(path: Path, env, learner, rank: int) -> None:
+    """A checkpoint resumed into today's run: refused (one line) if the robot or the observation layouts changed
+    since; a PPO setting that differs from the checkpoint's is said on stderr (the CLI's value is used)."""
+    from cra_warp.config_io import to_data
+    from cra_warp.learning.checkpoint import read_checkpoint
+    from train.runner import _check_against_today
+
+    stored = (read_checkpoint(path).get("infos") or {}).get("config")
+    if stored is None:
+        return
+    _check_against_today(path, stored, env)
+    then, now = stored.get("learner", {}).get("ppo", {}), to_data(learner.ppo)
+    changed = {k: f"{then.get(k)} -> {v}" for k, v in now.items() if then.get(k) != v}
+    if changed and rank == 0:
+        print(f"cra-train: resuming {path} with PPO settings changed from its own: {changed}", file=sys.stderr)
+
+
 def seed_everything(seed: int) -> None:
     import numpy as np
     import torch
@@ -152,7 +169,7 @@ def run(a: TrainArgs):
     from cra_warp.config_io import with_overrides
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint
-    from cra_warp.learning.config import LearnerConfig, runner_cfg
+    from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
     from train.export import export_run
@@ -180,7 +197,7 @@ def run(a: TrainArgs):
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
                                            tau=a.contrast_tau)
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
-                                      use_mixed_precision=a.bf16)
+                                      use_mixed_precision=a.bf16 and bf16_supported(a.device))
     run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
     config = run_config(a, env, env_cfg, learner)
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
@@ -190,6 +207,7 @@ def run(a: TrainArgs):
         run_dir.mkdir(parents=True, exist_ok=True)
         write_json(run_dir / "config.json", config, indent=2)
     if a.resume is not None:
+        check_resume(a.resume, env, learner, rank)
         load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     torch.set_num_threads(threads)

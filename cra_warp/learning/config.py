@@ -115,9 +115,10 @@ class PPOConfig:
     use_clipped_value_loss: bool = True
     normalize_advantage_per_mini_batch: bool = False
     # bf16 autocast of the update's forward passes and losses (rsl-rl's own switch); parameters, optimizer state,
-    # returns and advantages stay fp32, and InfoNCE's softmax runs in fp32. On this CPU's AMX the update at N=1024,
-    # one thread, took 17.2 s in fp32 and 10.6 s in bf16; a 2-seed A/B of 100 flat iterations learned the same
-    # (tools/results/ab_bf16.json). Needs bf16 support (AMX/AVX512-BF16 CPUs, Ampere or newer GPUs).
+    # returns and advantages stay fp32, and InfoNCE's softmax runs in fp32. With AVX512-BF16 the update at N=1024,
+    # one thread, took 16.7 s in fp32 and 10.5 s in bf16 (tools/results/learner_cpu_2core.json); a 2-seed A/B of
+    # 100 flat iterations learned the same (tools/results/ab_bf16.json). cra-train turns it off where the device
+    # has no native bf16 (bf16_supported), as emulated bf16 is slower than fp32.
     use_mixed_precision: bool = True
 
 
@@ -139,6 +140,15 @@ class LearnerConfig:
     # rsl-rl compiles actor and critic with torch.compile in this mode (None: eager). Measured on this CPU
     # (tools/bench_learner.py): no gain for the GRU models, so eager is the default.
     torch_compile_mode: str | None = None
+
+
+def bf16_supported(device: str) -> bool:
+    """Native bf16 matrix work on ``device``: AVX512-BF16 or AMX on a CPU, compute capability 8+ on CUDA."""
+    import torch
+
+    if str(device).startswith("cuda"):
+        return torch.cuda.is_bf16_supported(including_emulation=False)
+    return bool(torch.cpu._is_avx512_bf16_supported() or torch.cpu._is_amx_tile_supported())
 
 
 def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) -> dict:

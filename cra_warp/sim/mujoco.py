@@ -204,8 +204,9 @@ class MujocoWorld:
         self._control64[:, :, :nu] = self.joint_target.unsqueeze(1)
         self._control64[:, :, self._xfrc_base:self._xfrc_base + 6] = self.base_force.unsqueeze(1)
         # MuJoCo silently resets a world whose state is not finite, or turns so during the step (to the model's
-        # qpos0, time 0); keep such a world non-finite instead, so the task sees it, resets it and counts it, as on
-        # Newton. Time is state column 0: a reset world's clock ends short of start + one env step.
+        # qpos0, time 0), and rollout stops a world at any MuJoCo warning (also a full contact or constraint
+        # buffer). Such a world is made non-finite instead, so the task sees it, resets it and counts it, as on
+        # Newton. Time is state column 0: such a world's clock ends short of start + one env step.
         broken = ~torch.isfinite(self._state64).all(1)
         t_end = self._state64[:, 0] + 0.5 * self.cfg.env_dt
         rollout.rollout(self._models, self._datas, self._state, self._control, control_spec=_CONTROL,
