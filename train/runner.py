@@ -91,7 +91,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     (terrain, seed, course, randomization, episode_length_s). A checkpoint whose observation layout no longer
     matches today's code is refused. Raises CheckpointError (one line) for a missing, foreign or mismatched file.
     """
-    from cra_warp.config_io import from_data, to_data
+    from cra_warp.config_io import from_data
     from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
     from envs.loco_config import LocoConfig
