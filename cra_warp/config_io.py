@@ -1,6 +1,7 @@
 """Typed configs to plain data and back: a run stores its whole resolved configuration and is rebuilt from it.
 
-``to_data`` turns nested dataclasses into JSON-able dicts (tuples become lists, paths strings); ``from_data``
+``to_data`` turns nested dataclasses into JSON-able dicts (tuples become lists, paths strings, slices
+[start, stop], tensors and arrays lists); ``from_data``
 rebuilds the dataclass from such a dict, field by field from the type hints, so a stored run never depends on
 today's defaults. Unknown keys are an error that names them (a config written by another version of the code).
 """
@@ -25,6 +26,8 @@ def to_data(x):
         return str(x)
     if isinstance(x, slice):
         return [x.start, x.stop]
+    if hasattr(x, "tolist"):  # torch tensors, numpy arrays and scalars
+        return x.tolist()
     return x
 
 

@@ -15,13 +15,13 @@ cra_warp does not import the task: the caller passes the task metadata (see :dat
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 
 import torch
 
 from cra_warp.atomic_json import write_json
+from cra_warp.config_io import to_data
 
 # key -> what it is. "gait" may be None for a clock-free policy (no gait actions).
 REQUIRED_METADATA: dict[str, str] = {
@@ -39,24 +39,6 @@ REQUIRED_METADATA: dict[str, str] = {
     "pd": "the PD law the drives run, its rate, held joints and the simulated rotor inertia",
 }
 GAIT_KEYS = ("cycle_time", "alpha", "psi", "gamma", "beta_scale")
-
-
-def _jsonable(x):
-    if isinstance(x, slice):
-        return [x.start, x.stop]
-    if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return _jsonable(dataclasses.asdict(x))
-    if isinstance(x, Mapping):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, torch.Tensor):
-        return x.detach().cpu().tolist()
-    if hasattr(x, "tolist"):  # numpy arrays and scalars
-        return x.tolist()
-    if isinstance(x, Path):
-        return str(x)
-    return x
 
 
 def _check_metadata(meta: dict, obs_dim: int, action_dim: int) -> None:
@@ -96,7 +78,7 @@ def export_policy(policy, out_dir: str | Path, metadata: Mapping, name: str = "p
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     actor = policy.alg.get_policy() if hasattr(policy, "alg") else policy
-    meta = _jsonable(dict(metadata))
+    meta = to_data(dict(metadata))
     obs_dim = actor.obs_dim
     action_dim = actor.distribution.output_dim if actor.distribution is not None else actor.mlp[-1].out_features
     _check_metadata(meta, obs_dim, action_dim)
