@@ -81,6 +81,8 @@ class RewardConfig:
     contact_threshold: float = 5.0                   # [N] a foot with more vertical force is in contact
     power_floor: float = 0.1                         # keeps the joint-power ratio finite for a standing robot
     only_positive_rewards: bool = True               # clip the summed reward at 0 (see the module docstring)
+    # Added to the (clipped) step reward of a robot that falls; not a Table I term (the paper gives none), 0 = off.
+    termination_penalty: float = 0.0
 
 
 # Table I of the paper, in its order.

@@ -80,7 +80,7 @@ class LocoEnv(VecEnv):
         self.command_timer = z(N)
         self.push_timer = z(N)
         self.force_timer = z(N)
-        self.episode_sums = {k: z(N) for k in TERMS}
+        self.episode_sums = {k: z(N) for k in (*TERMS, "termination")}
         self.start_xy = z(N, 2)
         self.commanded_dist = z(N)
         self.nonfinite_resets = 0
@@ -138,6 +138,9 @@ class LocoEnv(VecEnv):
         fell, nonfinite = self._terminations()
         time_out = self.episode_length_buf >= self.max_episode_length
         dones = fell | time_out | nonfinite
+        if cfg.rewards.termination_penalty:
+            terms["termination"] = cfg.rewards.termination_penalty * fell.float()
+            rew = rew + terms["termination"]
         rew = torch.where(nonfinite, 0.0, rew)  # nothing from a broken world reaches the learner
         for k, v in terms.items():
             self.episode_sums[k] += v

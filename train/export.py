@@ -70,6 +70,11 @@ def deploy_metadata(env) -> dict:
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,
                        "yaw_rate_filter_tau": o.yaw_rate_filter_tau},
         "frames": {"base": "the pelvis link (IMU frame)", "world": "z up", "quaternions": "xyzw in the sim"},
+        "bodies": {"base": robot.base_link, "feet": list(robot.foot_links)},
+        "base_height": robot.base_height,
+        "termination": {"fall_height": cfg.fall_height, "fall_gravity_z": cfg.fall_gravity_z,
+                        "note": "training ended an episode when the pelvis was less than fall_height [m] above the "
+                                "ground under it or the base-frame gravity z rose above fall_gravity_z"},
         "variant": cfg.variant,
     }
 

@@ -15,6 +15,10 @@ import torch
 import warp as wp
 
 import newton
+
+# Warp logs every kernel module load (hundreds per world); keep the console for our own progress output.
+wp.config.quiet = True
+wp.config.log_level = wp.LOG_WARNING
 from newton import JointTargetMode
 from mujoco_warp import OverflowType
 from newton.sensors import SensorContact
