@@ -86,6 +86,28 @@ def test_eval_terrain_needs_whole_levels():
     (["--agent-stand", "--speeds", "nan"], "--speeds"),
     (["--agent-stand", "--json", "/nonexistent/dir/eval.json"], "no such directory"),
     (["--agent-stand", "--device", "tpu"], "--device"),
+    (["--agent-stand", "--trial", "hills"], "--trial"),
+    (["--agent-stand", "--trial", "flat", "--seconds", "1"], "--seconds"),
 ])
 def test_eval_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, eval_cli.main(args), word)
+
+
+def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
+    """The scripted stand on flat ground: every robot stays up for the trial, and its forward-velocity tracking
+    error is the commanded speed (it does not walk); a robot that falls counts as failed."""
+    import json
+
+    out = tmp_path / "flat.json"
+    assert eval_cli.main(["--agent-stand", "--trial", "flat", "--robots", "4", "--seconds", "3", "--speeds", "0.4",
+                          "--sim", "mujoco", "--json", str(out)]) == 0
+    (r,) = json.loads(out.read_text())
+    assert r["trial"] == "flat" and r["robots"] == 4 and r["success_rate"] == 1.0
+    assert r["tracking_error"] == pytest.approx(0.4, abs=0.05)
+
+    from envs.loco_config import DomainRandConfig, LocoConfig
+    from envs.locomotion import LocoEnv
+
+    env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
+    zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 3.0)
+    assert zero["fall_rate"] == 1.0   # the soft ankles: a zero action falls in ~1.3 s

@@ -1,7 +1,9 @@
-"""cra-eval: success rates of policies on the evaluation course (paper IV-B: reach the target without falling).
+"""cra-eval: success rates of policies on the evaluation course (paper IV-B: reach the target without falling),
+or the flat-ground walking trial.
 
     cra-eval runs/<run>/model_120.pt                          # one policy, 10 robots per difficulty level
     cra-eval a/model_120.pt b/model_120.pt --agent-stand --speeds 0.3 0.6 --json eval.json
+    cra-eval runs/<run>/model_900.pt --trial flat --robots 200 --seconds 20   # walking on flat ground
 
 Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
@@ -10,6 +12,9 @@ it ever falls; a fallen robot is respawned by the env but stays failed. A trial 
 distance over the speed, plus 2 s. Physical randomisation, pushes and shoves are off (the nominal robot); the
 actor's observation noise stays on. --agent-stand adds a floor: the scripted stand (cra_warp.stand), which holds
 the reference pose and walks nowhere (the robot's soft ankles make a zero action fall).
+The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0,
+for --seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
+the first 2 s (the start from rest).
 """
 
 from __future__ import annotations
@@ -39,6 +44,9 @@ class EvalArgs:
     sim: str | None = None                           # newton | mujoco; default: each checkpoint's (newton: stand)
     seed: int = 0
     json: Path | None = None                         # write the records (one per policy, speed, kind, level)
+    trial: str = "course"                            # course (the evaluation course) | flat (walking trial)
+    robots: int = 200                                # flat trial: robots per policy and speed
+    seconds: float = 20.0                            # flat trial: its length [s]
 
 
 class Tally:
@@ -83,6 +91,30 @@ def evaluate(env, act, speed: float) -> Tally:
     return tally
 
 
+def flat_trial(env, act, speed: float, seconds: float) -> dict:
+    """Every robot commanded (speed, 0) on flat ground, heading held at 0, for ``seconds``: fall rate and the mean
+    forward-velocity tracking error of the robots still up, after the first 2 s."""
+    n, dev = env.num_envs, env.device
+    fell = torch.zeros(n, dtype=torch.bool, device=dev)
+    err, count = torch.zeros((), device=dev), torch.zeros((), device=dev)
+    forward = torch.tensor([speed, 0.0], device=dev).expand(n, 2)
+    heading = torch.zeros(n, device=dev)
+    env.reset_idx(torch.arange(n, device=dev))
+    dones = torch.ones(n, dtype=torch.bool, device=dev)
+    with torch.inference_mode():
+        for k in range(round(seconds / env.dt)):
+            env.hold_commands(forward, heading, refresh=k == 0)
+            _, _, d, extras = env.step(act(env.get_observations(), dones))
+            dones = d.bool()
+            fell |= dones & ~extras["time_outs"]
+            if (k + 1) * env.dt > 2.0:
+                up = ~fell
+                err += ((env.base_lin_vel[:, 0] - speed).abs() * up).sum()
+                count += up.sum()
+    return {"fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
+            "tracking_error": float(err / count) if count > 0 else None}
+
+
 def _policies(a: EvalArgs):
     """(name, factory) pairs; factory(num_envs, overrides) -> (env, act)."""
     from envs.loco_config import LocoConfig
@@ -117,6 +149,16 @@ def run(a: EvalArgs) -> list[dict]:
     from envs.loco_config import DomainRandConfig
 
     keep_freed_memory()
+    if a.trial == "flat":
+        records = []
+        for name, make in _policies(a):
+            for speed in a.speeds:
+                torch.manual_seed(a.seed)
+                env, act = make(a.robots, dict(terrain="flat", randomization=DomainRandConfig(enabled=False),
+                                               episode_length_s=1e6))
+                records.append({"policy": name, "speed": speed, "trial": "flat", "robots": a.robots,
+                                "seconds": a.seconds, **flat_trial(env, act, speed, a.seconds)})
+        return records
     course = EvalCourseConfig(kinds=a.kinds or EVAL_KINDS)
     num_envs = len(course.kinds) * course.num_levels * a.robots_per_level
     records = []
@@ -139,7 +181,14 @@ def run(a: EvalArgs) -> list[dict]:
 
 
 def print_table(records: list[dict]) -> None:
-    """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top."""
+    """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top (the flat
+    trial: one row per policy and speed)."""
+    if records and records[0].get("trial") == "flat":
+        print(f"{'policy':40} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10}")
+        for r in records:
+            e = "-" if r["tracking_error"] is None else f"{r['tracking_error']:.3f}"
+            print(f"{r['policy'][-40:]:40} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10}")
+        return
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
     blocks = {}
     for r in records:
@@ -170,6 +219,10 @@ def main(argv: list[str] | None = None) -> int:
         bad = [k for k in a.kinds if k not in EVAL_KINDS]
         if bad:
             raise UsageError(f"--kinds must be among {', '.join(EVAL_KINDS)}, got {', '.join(bad)}")
+        if a.trial not in ("course", "flat"):
+            raise UsageError(f"--trial must be course or flat, got {a.trial!r}")
+        if a.robots < 1 or not (math.isfinite(a.seconds) and a.seconds > 2.0):
+            raise UsageError(f"--robots must be >= 1 and --seconds > 2, got {a.robots} and {a.seconds}")
         if a.robots_per_level < 1:
             raise UsageError(f"--robots-per-level must be >= 1, got {a.robots_per_level}")
         if not a.speeds or not all(math.isfinite(v) and v > 0 for v in a.speeds):

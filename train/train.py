@@ -49,7 +49,8 @@ class TrainArgs:
     epochs: int = 3                    # PPO epochs per iteration (3: tools/results/ab_epochs.json)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
     bf16: bool = True                  # bf16 autocast in the PPO update where the device has native bf16; --no-bf16
-    # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false
+    # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false;
+    # learner settings under "learner.": --override learner.ppo.desired_kl=0.02 learner.actor.init_std=0.5
     override: tuple[str, ...] = ()
     contrast_weight: float = 0.1       # weight of the InfoNCE term in the loss
     contrast_tau: float = 0.1          # InfoNCE temperature
@@ -187,9 +188,12 @@ def run(a: TrainArgs):
     env_variant, contrast = VARIANTS[a.variant]
     env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
                          seed=a.seed + rank, world=world_config(a.sim, threads=threads))
-    if a.override:
+    overrides = parse_overrides(a.override)
+    env_over = {k: v for k, v in overrides.items() if not k.startswith("learner.")}
+    learner_over = {k[len("learner."):]: v for k, v in overrides.items() if k.startswith("learner.")}
+    if env_over:
         try:
-            env_cfg = with_overrides(env_cfg, parse_overrides(a.override))
+            env_cfg = with_overrides(env_cfg, env_over)
         except (ValueError, TypeError) as e:
             raise UsageError(f"--override: {e}") from e
     env = LocoEnv(env_cfg)
@@ -198,6 +202,11 @@ def run(a: TrainArgs):
                                            tau=a.contrast_tau)
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
                                       use_mixed_precision=a.bf16 and bf16_supported(a.device))
+    if learner_over:
+        try:
+            learner = with_overrides(learner, learner_over)
+        except (ValueError, TypeError) as e:
+            raise UsageError(f"--override: learner.{e}") from e
     run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
     config = run_config(a, env, env_cfg, learner)
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
