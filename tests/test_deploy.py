@@ -157,3 +157,50 @@ def test_sim2sim_bad_input_is_one_line(export_dir, tmp_path, capsys):
     bad = tmp_path / "bad.xml"
     bad.write_text("<mujoco><worldbody><body><joint name='x'/></body></worldbody></mujoco>")
     one_line_error(capsys, sim2sim.main([str(export_dir), "--model", str(bad)]), "hipPitch_Left")
+
+
+def _env_fall_times(export_dir, robots: int = 4) -> list[float]:
+    """Fall times of the exported policy run by the deploy module in the training env (MuJoCo backend, 5 ms PD,
+    nominal robot, no noise), each robot commanded 0.5 m/s forward with its heading held."""
+    from envs.loco_config import DomainRandConfig
+
+    cfg = LocoConfig(num_envs=robots, seed=3, randomization=DomainRandConfig(enabled=False), episode_length_s=100.0)
+    cfg.world.backend, cfg.obs.noise = "mujoco", False
+    env = LocoEnv(cfg)
+    deps = [DeployPolicy(export_dir) for _ in range(robots)]
+    fell: list[float | None] = [None] * robots
+    forward = torch.tensor([0.5, 0.0]).expand(robots, 2)
+    for k in range(250):
+        env.hold_commands(forward, torch.zeros(robots), refresh=k == 0)
+        readings = (env.commands, env.projected_gravity, env.joint_pos, env.joint_vel, env.base_ang_vel)
+        a = np.stack([d.act(d.observe(*[r[i].numpy() for r in readings])) for i, d in enumerate(deps)])
+        for d, ai in zip(deps, a):
+            d.apply(ai)
+        _, _, dones, _ = env.step(torch.as_tensor(a, dtype=torch.float32))
+        for i in np.flatnonzero(dones.numpy()):
+            fell[i] = fell[i] or (k + 1) * env.dt
+        if all(fell):
+            break
+    assert all(fell), "the untrained policy should fall within 5 s in training"
+    return fell
+
+
+@pytest.mark.slow
+def test_the_same_policy_falls_alike_in_training_and_on_the_vendor_models(export_dir):
+    """The actuator model transfers: an untrained policy (near-zero actions: the robot's soft ankles let it fall
+    forward) falls after the same time in the training env (explicit PD every 5 ms) and in cra-sim2sim (explicit PD
+    at 1 kHz) on both vendor MJCFs (pnd_mujoco and menagerie): mean fall times within 10%."""
+    from conftest import REFERENCE, need_shared
+    from train import sim2sim
+
+    trained = float(np.mean(_env_fall_times(export_dir)))
+    spec_json, _ = sim2sim.load_export(export_dir)
+    for xml in (REFERENCE / "pnd_mujoco" / "pnd_robots" / "adam_lite" / "scene.xml",
+                REFERENCE / "mujoco_menagerie" / "pndbotics_adam_lite" / "scene.xml"):
+        args = sim2sim.Sim2SimArgs(export=export_dir, model=need_shared(xml))
+        model, qadr, vadr, held = sim2sim.build_model(args, spec_json)
+        trial = sim2sim.Trial(model, (qadr, vadr), held, DeployPolicy(export_dir), spec_json, sim2sim.Terrain(args))
+        runs = [trial.run(0.5, 5.0, seed) for seed in range(4)]
+        assert all(r["fell"] for r in runs), xml
+        vendor = float(np.mean([r["time_survived"] for r in runs]))
+        assert abs(vendor - trained) < 0.1 * trained, (xml, vendor, trained)
