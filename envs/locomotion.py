@@ -56,11 +56,10 @@ class LocoEnv(VecEnv):
         self.soft_pos_lower, self.soft_pos_upper = mid - half, mid + half
         self.soft_vel_limit = torch.tensor(robot.velocity_limit, **d) * cfg.rewards.soft_limit
         self.soft_torque_limit = torch.tensor(robot.effort_limit, **d) * cfg.rewards.soft_limit
-        names = robot.joint_names
-        self.arm_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith(("shoulder", "elbow"))], **d)
-        self.hip_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith(("hipRoll", "hipYaw"))], **d)
-        self.waist_joints = torch.tensor([i for i, n in enumerate(names) if n.startswith("waist")], **d)
-        self.torso_body = self.world.body_index["torso"]
+        self.arm_joints = torch.tensor(robot.joint_ids(robot.arm_joints), **d)
+        self.hip_joints = torch.tensor(robot.joint_ids(robot.hip_joints), **d)
+        self.waist_joints = torch.tensor(robot.joint_ids(robot.waist_joints), **d)
+        self.torso_body = self.world.body_index[robot.torso_link]
         self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY

@@ -37,6 +37,11 @@ class RobotConfig:
     stand_kp: tuple[float, ...] = ()
     stand_kd: tuple[float, ...] = ()
     ankle_pitch_joints: tuple[str, ...] = ()    # the scripted stand balances the CoM over the soles through these
+    # Joint groups and bodies the task's reward terms read (Table I's arm / hip / waist deviation, torso orientation)
+    arm_joints: tuple[str, ...] = ()
+    hip_joints: tuple[str, ...] = ()            # hip roll and yaw: hip pitch must swing to walk
+    waist_joints: tuple[str, ...] = ()
+    torso_link: str = ""
 
     def __post_init__(self):
         n = len(self.joint_names)
@@ -44,6 +49,14 @@ class RobotConfig:
                   "stand_kd"):
             if len(getattr(self, f)) != n and not (f.startswith("stand_") and not getattr(self, f)):
                 raise ValueError(f"RobotConfig.{f} has {len(getattr(self, f))} entries, expected {n} (one per joint)")
+        for f in ("ankle_pitch_joints", "arm_joints", "hip_joints", "waist_joints"):
+            unknown = [j for j in getattr(self, f) if j not in self.joint_names]
+            if unknown:
+                raise ValueError(f"RobotConfig.{f} names joints that are not driven: {unknown}")
+
+    def joint_ids(self, names: tuple[str, ...]) -> list[int]:
+        """Canonical indices of ``names``."""
+        return [self.joint_names.index(n) for n in names]
 
     @property
     def num_joints(self) -> int:

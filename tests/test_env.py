@@ -218,3 +218,71 @@ def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
     for _ in range(50):
         o, rew, dones, extras = e.step(torch.randn(4, e.num_actions, generator=gen))
         assert torch.isfinite(rew).all() and all(torch.isfinite(v).all() for v in o.values())
+
+
+def test_reward_sum_clips_at_zero_skips_zero_weights_and_needs_the_clock_for_the_pattern(env):
+    """The step reward is the weighted sum of the terms with a non-zero weight, clipped at 0 from below when
+    only_positive_rewards is on (the default); a term with weight 0 is not computed; the clock-free variant has no
+    contact-pattern term."""
+    rw = env.cfg.rewards
+    saved = dict(rw.weights), rw.only_positive_rewards
+    try:
+        env.step(0.3 * torch.randn(env.num_envs, env.num_actions, generator=torch.Generator().manual_seed(0)))
+        rw.weights["feet_parallel"] = 0.0
+        rw.weights["orientation"] = -1e4          # a large penalty: some totals go negative
+        env.world.root_quat[:4] = torch.tensor([0.2, 0.0, 0.0, 0.98])  # tilted robots pay it
+        env._refresh()
+        rw.only_positive_rewards = False
+        raw, terms = env._rewards()
+        assert "feet_parallel" not in terms and "contact_pattern" in terms
+        assert torch.allclose(raw, sum(terms.values()), atol=1e-4)
+        assert (raw < 0).any()
+        rw.only_positive_rewards = True
+        clipped, _ = env._rewards()
+        assert torch.allclose(clipped, raw.clamp(min=0.0), atol=1e-4)
+    finally:
+        rw.weights.clear()
+        rw.weights.update(saved[0])
+        rw.only_positive_rewards = saved[1]
+        env.reset_idx(torch.arange(env.num_envs))
+    free = LocoEnv(LocoConfig(num_envs=2, variant="clock_free", obs=ObsConfig(noise=False)))
+    free.step(torch.zeros(2, free.num_actions))
+    assert "contact_pattern" not in free._rewards()[1]
+
+
+def test_fixed_cycle_ignores_the_gait_actions():
+    """fixed_cycle keeps the 26-dim action but its clock runs at 1 / T_cycle whatever the gait actions say."""
+    e = LocoEnv(LocoConfig(num_envs=2, variant="fixed_cycle", obs=ObsConfig(noise=False)))
+    assert e.num_actions == J + 3
+    a = torch.zeros(2, e.num_actions)
+    a[:, J:] = torch.tensor([[1.0, 0.5, -0.5], [-1.0, -0.3, 0.7]])
+    for k in range(5):
+        e.step(a)
+        assert torch.allclose(e.clock.phase, torch.full((2,), (k + 1) * e.dt), atol=1e-6)
+        assert (e.clock.deltas == 0).all()
+    adaptive = LocoEnv(LocoConfig(num_envs=2, obs=ObsConfig(noise=False)))
+    adaptive.step(a)
+    assert not torch.allclose(adaptive.clock.phase[0], adaptive.clock.phase[1])  # the same actions do steer it
+
+
+def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
+    c = env.cfg.commands
+    cmds = []
+    for _ in range(200):
+        env._resample_commands(torch.arange(env.num_envs))
+        cmds.append(env.commands.clone())
+    cmds = torch.cat(cmds)
+    xy = cmds[:, :2].norm(dim=-1)
+    standing = (cmds == 0).all(-1).float().mean()
+    assert abs(standing - c.standing_fraction) < 0.04           # 1600 draws
+    assert ((xy == 0) | (xy >= c.min_speed)).all() and (xy > 0).any()
+    for k, (lo, hi) in enumerate((c.lin_vel_x, c.lin_vel_y, c.ang_vel_yaw)):
+        assert (cmds[:, k] >= lo).all() and (cmds[:, k] <= hi).all()
+    # heading mode: a robot commanded to move turns towards its heading (the sign of the yaw-rate command)
+    from cra_warp.rotations import yaw
+
+    env.hold_commands(torch.tensor([0.5, 0.0]).expand(env.num_envs, 2),
+                      yaw(env.world.root_quat) + torch.linspace(-1.0, 1.0, env.num_envs))
+    sign = torch.sign(torch.linspace(-1.0, 1.0, env.num_envs))
+    assert (torch.sign(env.commands[:, 2]) == sign).all()
+    env.reset_idx(torch.arange(env.num_envs))

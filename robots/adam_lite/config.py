@@ -66,6 +66,10 @@ ADAM_LITE = RobotConfig(
     sole_half_size=(SOLE.size[0] / 2, SOLE.size[1] / 2),
     fixed_joints=("wristYaw_Left", "wristYaw_Right"),
     ankle_pitch_joints=("anklePitch_Left", "anklePitch_Right"),
+    arm_joints=tuple(f"{j}_{side}" for side in ("Left", "Right") for j in _ARM),
+    hip_joints=("hipRoll_Left", "hipYaw_Left", "hipRoll_Right", "hipYaw_Right"),
+    waist_joints=("waistRoll", "waistPitch", "waistYaw"),
+    torso_link="torso",
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
     # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
     # ankle pitch kd dt / I = 2.5 x 0.005 / (0.0043 + 0.01) = 0.9 with it, 2.9 without (explicit damping diverges
