@@ -252,3 +252,14 @@ def test_kill_9_mid_training_loses_at_most_one_save_interval(tmp_path):
                            "--no-export", "--quiet", "--log-dir", str(tmp_path / "resumed")]) == 0
     resumed = next((tmp_path / "resumed").rglob("model_*.pt"))
     assert torch.load(resumed, weights_only=False)["iter"] == int(newest.stem.split("_")[1]) + 1
+
+
+def test_resume_from_a_directory_takes_its_newest_checkpoint(tmp_path):
+    """--resume DIR: the highest iteration under DIR (any run inside it); none yet means a fresh start."""
+    assert train_cli.newest_checkpoint(tmp_path) is None
+    for run, its in (("a", (20, 100)), ("b", (40,))):
+        (tmp_path / run).mkdir()
+        for it in its:
+            (tmp_path / run / f"model_{it}.pt").write_bytes(b"x")
+    (tmp_path / "b" / "model_final.pt").write_bytes(b"x")
+    assert train_cli.newest_checkpoint(tmp_path) == tmp_path / "a" / "model_100.pt"

@@ -3,6 +3,7 @@
     cra-train                                   # the default: a ~10 min CPU run on flat ground (128 envs)
     cra-train --num-envs 4096 --device cuda:0 --task rough --max-iterations 10000
     cra-train --resume runs/<run>/model_40.pt --max-iterations 40   # continues at iteration 41
+    cra-train --resume runs/ --log-dir runs/ ...                     # the newest checkpoint under runs/ (campaigns)
     torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
 
 Variants (paper IV-A): ours (same-step contrast, adaptive clock), sequential (contrast with the next step),
@@ -43,7 +44,9 @@ class TrainArgs:
     sim: str = "newton"                # newton (CPU or CUDA) | mujoco (MuJoCo C, CPU: the fast CPU path)
     max_iterations: int = 120          # learning iterations (24 env steps per env each): ~10 min on 2 CPU cores
     seed: int = 1
-    resume: Path | None = None         # checkpoint to continue from (iteration count and optimizer state)
+    # checkpoint to continue from (iteration count and optimizer state); a directory: its newest model_<it>.pt
+    # (highest iteration, then newest run), so a campaign restarts with the same command
+    resume: Path | None = None
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
     epochs: int = 3                    # PPO epochs per iteration (3: tools/results/ab_epochs.json)
@@ -83,6 +86,8 @@ def validate(a: TrainArgs) -> None:
         raise UsageError(f"--contrast-weight must be >= 0 and --contrast-tau > 0, got {a.contrast_weight}, "
                          f"{a.contrast_tau}")
     parse_overrides(a.override)
+    if a.resume is not None and a.resume.is_dir():
+        a.resume = newest_checkpoint(a.resume)
     if a.resume is not None and not a.resume.is_file():
         raise UsageError(f"--resume {a.resume}: no such file")
     check_sim(a.sim, a.device)
@@ -135,6 +140,14 @@ def run_config(a: TrainArgs, env, env_cfg, learner) -> dict:
 
     return {"args": to_data(a), "env": to_data(env_cfg), "learner": to_data(learner), "robot": to_data(env.robot),
             "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
+
+
+def newest_checkpoint(folder: Path) -> Path | None:
+    """The checkpoint under ``folder`` with the highest iteration (ties: the newest file); None if there is none,
+    so a campaign's first start and its restarts are the same command."""
+    found = [(int(p.stem.split("_")[1]), p.stat().st_mtime, p) for p in folder.rglob("model_*.pt")
+             if p.stem.split("_")[1].isdigit()]
+    return max(found)[2] if found else None
 
 
 def check_resume(path: Path, env, learner, rank: int) -> None:
