@@ -76,7 +76,7 @@ class DeployPolicy:
             self.kp = np.asarray(spec["kp"], dtype=np.float64)
             self.kd = np.asarray(spec["kd"], dtype=np.float64)
             self.effort_limit = np.asarray(spec["effort_limit"], dtype=np.float64)
-            self.action_scale = float(spec["action_scale"])
+            self.action_scale = np.asarray(spec["action_scale"], dtype=np.float64)  # per joint (or one for all)
             self.clip_joints = float(spec["action_clip"]["joints"])
             self.clip_gait = float(spec["action_clip"].get("gait", 1.0))
             self.gait = spec["gait"] if self.action_dim == J + 3 else None

@@ -60,6 +60,6 @@ class ScriptedStand:
             q_star[:, self._ankles] = q_ref[..., self._ankles] + tau.unsqueeze(-1) * self._inv_kp[self._ankles]
         return q_star
 
-    def actions(self, world, action_scale: float) -> torch.Tensor:
+    def actions(self, world, action_scale: float | torch.Tensor) -> torch.Tensor:
         """The joint actions [N, J] that produce these targets: q* = q_ref + action_scale * a."""
         return (self.targets(world) - self.q_ref) / action_scale

@@ -151,6 +151,12 @@ class LocoConfig:
     terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
     course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
     clip_joint_actions: float = 10.0
+    # 0: q* = q_ref + robot.action_scale a on every joint (the vendor's 0.5). > 0: a per-joint scale of
+    # action_scale_effort x effort_limit / kp, so a unit action asks every joint for the same share of its torque
+    # limit (mjlab scales its actions so); joints without stiffness keep robot.action_scale. With the vendor's soft
+    # ankles the uniform 0.5 gives ankle pitch 12.5 N m per unit action against hip pitch's 152.
+    action_scale_effort: float = 0.0
+    action_scale_max: float = 1.0                         # [rad] cap of the per-joint scale (the soft arms)
     fall_height: float = 0.45                             # [m] pelvis above the ground under it
     fall_gravity_z: float = -0.5                          # base-frame gravity z above this = tilted over
     seed: int = 0

@@ -63,6 +63,11 @@ class LocoEnv(VecEnv):
         self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
+        kp0, effort = torch.tensor(robot.kp, **d), torch.tensor(robot.effort_limit, **d)
+        self.action_scale = torch.full((J,), robot.action_scale, **d)
+        if cfg.action_scale_effort > 0:
+            per_joint = (cfg.action_scale_effort * effort / kp0.clamp(min=1e-6)).clamp(max=cfg.action_scale_max)
+            self.action_scale = torch.where(kp0 > 0, per_joint, self.action_scale)
         self.kp = self.world.joint_kp  # [N, J] view: current (randomised) gains
         self.torques = self.world.joint_torque  # [N, J] view: the PD torque of the last physics step (clamped)
 
@@ -123,7 +128,7 @@ class LocoEnv(VecEnv):
         self.last_actions.copy_(self.actions)
         self.actions.copy_(a)
 
-        self.world.joint_target.copy_(self.default_q + self.robot.action_scale * a[:, :J])
+        self.world.joint_target.copy_(self.default_q + self.action_scale * a[:, :J])
         if cfg.uses_clock:
             gait = a[:, J:] if cfg.variant == "adaptive" else torch.zeros_like(a[:, J:])
             self.clock.advance(gait, self.dt)
@@ -163,7 +168,7 @@ class LocoEnv(VecEnv):
     def stand_actions(self) -> torch.Tensor:
         """[N, A] actions of the scripted stand (cra_warp.stand) at the current state; gait actions 0."""
         a = torch.zeros(self.num_envs, self.num_actions, device=self.device)
-        a[:, :self.robot.num_joints] = self.stand.actions(self.world, self.robot.action_scale)
+        a[:, :self.robot.num_joints] = self.stand.actions(self.world, self.action_scale)
         return a
 
     # ------------------------------------------------------------------ state

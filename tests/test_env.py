@@ -286,3 +286,18 @@ def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
     sign = torch.sign(torch.linspace(-1.0, 1.0, env.num_envs))
     assert (torch.sign(env.commands[:, 2]) == sign).all()
     env.reset_idx(torch.arange(env.num_envs))
+
+
+def test_effort_scaled_actions_ask_each_joint_for_the_same_share_of_its_torque():
+    """action_scale_effort: a unit action moves each stiff joint's target by factor x effort / kp (capped), so the
+    PD torque it asks for is the same share of every joint's limit; ankle roll (kp 0) keeps the robot's scale."""
+    e = LocoEnv(LocoConfig(num_envs=2, obs=ObsConfig(noise=False), action_scale_effort=0.5, action_scale_max=1.0,
+                           randomization=DomainRandConfig(enabled=False)))
+    r = ADAM_LITE
+    kp, effort = torch.tensor(r.kp), torch.tensor(r.effort_limit)
+    e.step(torch.ones(2, e.num_actions))
+    step = e.world.joint_target[0] - torch.tensor(r.default_q)
+    stiff = (kp > 0) & (0.5 * effort / kp.clamp(min=1e-6) < 1.0)
+    assert torch.allclose((kp * step)[stiff], 0.5 * effort[stiff], rtol=1e-5)
+    assert torch.allclose(step[(kp > 0) & ~stiff], torch.ones(int(((kp > 0) & ~stiff).sum())))
+    assert torch.allclose(step[kp == 0], torch.full((int((kp == 0).sum()),), r.action_scale))

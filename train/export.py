@@ -48,7 +48,7 @@ def deploy_metadata(env) -> dict:
         "obs_layout": env.layout,
         "observation": {k: v for k, v in observation.items() if k in env.layout or k in ("clip", "order")},
         "joint_names": list(robot.joint_names),
-        "action_scale": robot.action_scale,
+        "action_scale": env.action_scale.tolist(),
         "action_clip": {"joints": cfg.clip_joint_actions, **({"gait": 1.0} if cfg.uses_clock else {})},
         "default_q": list(robot.default_q),
         "kp": list(robot.kp),

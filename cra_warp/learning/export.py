@@ -27,7 +27,7 @@ from cra_warp.config_io import to_data
 REQUIRED_METADATA: dict[str, str] = {
     "obs_layout": "actor observation: name -> slice (or [start, stop]) of the D-dim input, in order",
     "joint_names": "joint order of the first J actions and of joint_pos / joint_vel in the observation",
-    "action_scale": "q_target = default_q + action_scale * actions[:J]",
+    "action_scale": "q_target = default_q + action_scale * actions[:J] (one scale per joint, joint order)",
     "default_q": "reference pose q_ref [rad], joint order",
     "kp": "PD stiffness [N m / rad], joint order",
     "kd": "PD damping [N m s / rad], joint order",
@@ -71,7 +71,7 @@ def export_policy(policy, out_dir: str | Path, metadata: Mapping, name: str = "p
     :data:`REQUIRED_METADATA` (extra keys are copied too). Example from the caller's side::
 
         env = LocoEnv(cfg)
-        meta = dict(obs_layout=env.layout, joint_names=env.robot.joint_names, action_scale=env.robot.action_scale,
+        meta = dict(obs_layout=env.layout, joint_names=env.robot.joint_names, action_scale=env.action_scale,
                     default_q=env.robot.default_q, kp=env.robot.kp, kd=env.robot.kd,
                     gait=cfg.gait if cfg.uses_clock else None, control_dt=env.dt, obs_scales=cfg.obs)
     """
