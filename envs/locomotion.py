@@ -215,7 +215,7 @@ class LocoEnv(VecEnv):
         total = torch.zeros(self.num_envs, device=self.device)
         terms = {}
         for name, weight in self.cfg.rewards.weights.items():
-            if weight == 0.0 or (name == "contact_pattern" and not self.cfg.uses_clock):
+            if weight == 0.0 or (getattr(TERMS[name], "needs_clock", False) and not self.cfg.uses_clock):
                 continue
             r = weight * torch.nan_to_num(TERMS[name](self), nan=0.0, posinf=0.0, neginf=0.0)
             terms[name] = r
@@ -238,7 +238,7 @@ class LocoEnv(VecEnv):
         }
         if self.cfg.uses_clock:
             parts["gait_phase"] = self.clock.phase_obs
-        actor = torch.cat([parts[k] for k in self.layout], -1)
+        actor = self._assemble(parts, self.layout)
         noisy = actor
         if o.noise:
             unit = 2 * torch.rand(actor.shape, device=self.device, generator=self.gen) - 1
@@ -247,21 +247,32 @@ class LocoEnv(VecEnv):
         w = self.world
         com, _ = w.com()
         force = w.base_force[:, :3]
-        priv = torch.cat([
-            self.base_lin_vel * o.lin_vel_scale,
-            quat_rotate_inv(w.root_quat, com - w.root_pos),
-            self.ground.foot_height_maps(self.sole_centres, self.feet_quat).flatten(1),
-            self.contact.float(),
-            (self.foot_forces / self.robot_weight).flatten(1),
-            self.mass_offset.unsqueeze(-1), self.com_offset, self.motor_strength, self.kp_scale, self.kd_scale,
-            self.friction.unsqueeze(-1),
-            force / max(self.cfg.randomization.force_max, 1.0),
-            actor,
-        ], -1)
+        priv = self._assemble({
+            "base_lin_vel": self.base_lin_vel * o.lin_vel_scale,
+            "com_pos": quat_rotate_inv(w.root_quat, com - w.root_pos),
+            "foot_height_maps": self.ground.foot_height_maps(self.sole_centres, self.feet_quat).flatten(1),
+            "foot_contact": self.contact.float(),
+            "foot_forces": (self.foot_forces / self.robot_weight).flatten(1),
+            "mass_offset": self.mass_offset.unsqueeze(-1), "com_offset": self.com_offset,
+            "motor_strength": self.motor_strength, "kp_scale": self.kp_scale, "kd_scale": self.kd_scale,
+            "friction": self.friction.unsqueeze(-1),
+            "external_force": force / max(self.cfg.randomization.force_max, 1.0),
+            "actor": actor,
+        }, self.priv_layout)
         hmap = self.ground.height_map(w.root_pos, w.root_quat).unsqueeze(1)
         clip = o.clip
         return TensorDict({"policy": noisy.clamp(-clip, clip), "privileged": priv.clamp(-clip, clip),
                            "height_map": hmap.clamp(-clip, clip)}, batch_size=[self.num_envs], device=self.device)
+
+    @staticmethod
+    def _assemble(parts: dict[str, torch.Tensor], layout: dict[str, slice]) -> torch.Tensor:
+        """The observation in the layout's order (envs/observations.py is the one list of what sits where); a part
+        whose width differs from its slice is a bug, caught here rather than as shifted inputs."""
+        for name, where in layout.items():
+            if parts[name].shape[-1] != where.stop - where.start:
+                raise RuntimeError(f"observation part {name!r} is {parts[name].shape[-1]} wide, its slice "
+                                   f"{where.stop - where.start}")
+        return torch.cat([parts[k] for k in layout], -1)
 
     # ------------------------------------------------------------------ resets, commands, randomisation
     def reset_idx(self, ids: torch.Tensor):

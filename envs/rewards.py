@@ -155,6 +155,9 @@ def contact_pattern(e: LocoEnv):       # exp(-|m_stance(t) - c_actual(t)|^2)
     return torch.exp(-sq(e.clock.stance_mask.float() - e.contact.float()))
 
 
+contact_pattern.needs_clock = True     # the clock-free variant has no stance mask: the env skips the term
+
+
 TERMS: dict[str, Callable[[LocoEnv], torch.Tensor]] = {f.__name__: f for f in (
     lin_vel_tracking, ang_vel_tracking, lin_vel_z, ang_vel_xy, orientation, torso_orientation, joint_acc,
     joint_power, body_height, feet_clearance, action_rate, smoothness, feet_stumble, torques, joint_velocity,
