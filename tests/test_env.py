@@ -37,6 +37,13 @@ def test_actor_observation_layout(env):
     assert torch.equal(obs["policy"][:, L["prev_action"]], a)
     assert obs["privileged"].shape == (env.num_envs, 179 + 2 * J)  # + the PD gain scales
     assert torch.allclose(obs["privileged"][:, env.priv_layout["actor"]], obs["policy"])  # noise-free copy
+    p, P = obs["privileged"], env.priv_layout                  # each privileged slice holds what it names
+    assert torch.allclose(p[:, P["base_lin_vel"]], env.base_lin_vel * env.cfg.obs.lin_vel_scale)
+    assert torch.equal(p[:, P["foot_contact"]], env.contact.float())
+    assert torch.allclose(p[:, P["foot_forces"]], (env.foot_forces / env.robot_weight).flatten(1))
+    for name in ("motor_strength", "kp_scale", "kd_scale", "com_offset"):
+        assert torch.allclose(p[:, P[name]], getattr(env, name)), name
+    assert torch.allclose(p[:, P["friction"]], env.friction.unsqueeze(-1))
     assert obs["height_map"].shape == (env.num_envs, 1, 17, 11)
     assert torch.allclose(obs["height_map"], -env.root_pos[:, 2].view(-1, 1, 1, 1).expand(-1, 1, 17, 11))
 
