@@ -2,8 +2,8 @@
 
 Where the paper is silent we take what the legged-locomotion field does; every such choice is written here:
 - Control: policy at 50 Hz (env step 0.02 s = 4 x 0.005 s physics steps, the vendor's Isaac Gym setting).
-  q* = q_ref + s_j * a_j with a per-joint scale s_j = 0.5 effort_j / kp_j (capped at 1 rad; see action_scale_effort); actions clipped to +-clip_joint_actions and the
-  three gait actions to +-1 (with alpha 0.5 the gait rate stays within 0.5x..1.5x).
+  q* = q_ref + s_j * a_j with a per-joint scale s_j = 0.5 effort_j / kp_j (capped at 1 rad; see
+  action_scale_effort); actions clipped to +-clip_joint_actions and the three gait actions to +-1 (with alpha 0.5 the gait rate stays within 0.5x..1.5x).
 - "Average angular speed" (one actor input) is the low-pass filtered yaw rate, as in the vendor's Adam Lite
   policies whose per-frame observation has the same order as the paper's (filter time constant below).
 - Observation scales are the vendor's (angular velocity 0.25, joint velocity 0.05, command (2, 2, 0.25)); uniform
