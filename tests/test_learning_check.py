@@ -21,6 +21,8 @@ def test_reward_episode_length_and_infonce_improve(tmp_path):
     chance = last[-1]["infonce_chance"]
     print(f"first: reward {first['reward']:.2f}, episode {first['episode_s']:.2f} s; "
           f"last 5: reward {reward:.2f}, episode {length:.2f} s, InfoNCE top-1 {acc:.2f} (chance {chance:.4f})")
-    assert reward > 1.5 * first["reward"] and reward > first["reward"] + 5.0
-    assert length > 1.1 * first["episode_s"]
+    # With effort-scaled actions the first iteration already earns ~130 (the fall comes later than with the vendor's
+    # uniform scale); measured at seed 3: 134 -> 164 reward, 1.28 -> 1.42 s. A learner that does not learn stays put.
+    assert reward > 1.15 * first["reward"] and reward > first["reward"] + 10.0
+    assert length > 1.05 * first["episode_s"]
     assert acc > 10 * chance
