@@ -1,11 +1,19 @@
 """Shared fixtures. Worlds are small (the physics is the same at N=4 as at N=4096) and built once per module."""
 
+import os
 from pathlib import Path
 
 import pytest
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 REFERENCE = SHARED / "reference" / "adam_lite"
+# The device of the tests that build Newton worlds and the task on them (test_world, test_env): the CPU unless
+# CRA_TEST_DEVICE names another (tools/gpu_check.sh runs them on cuda:0). The MuJoCo C backend is CPU-only.
+DEVICE = os.environ.get("CRA_TEST_DEVICE", "cpu")
+
+
+def device_for(backend: str) -> str:
+    return "cpu" if backend == "mujoco" else DEVICE
 
 
 def need_shared(path: Path) -> Path:

@@ -1,10 +1,9 @@
 """The locomotion task on the real batched world: layout, randomisation, pushes, terminations, the VecEnv contract."""
 
-
-
 import pytest
 import torch
 
+from conftest import DEVICE
 from envs.loco_config import DomainRandConfig, LocoConfig, ObsConfig
 from envs.locomotion import LocoEnv
 from robots.adam_lite import ADAM_LITE
@@ -16,22 +15,22 @@ J = ADAM_LITE.num_joints
 def env():
     # pushes and external forces off: these tests poke the state themselves
     rd = DomainRandConfig(push_interval=1e9, force_max=0.0)
-    return LocoEnv(LocoConfig(num_envs=8, obs=ObsConfig(noise=False), randomization=rd))
+    return LocoEnv(LocoConfig(num_envs=8, device=DEVICE, obs=ObsConfig(noise=False), randomization=rd))
 
 
 def test_actor_observation_layout(env):
-    env.reset_idx(torch.arange(env.num_envs))
-    env.commands[:] = torch.tensor([0.5, -0.2, 0.3])
-    obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions))
+    env.reset_idx(torch.arange(env.num_envs, device=env.device))
+    env.commands[:] = torch.tensor([0.5, -0.2, 0.3], device=env.device)
+    obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
     o, L = obs["policy"], env.layout
     assert o.shape == (env.num_envs, 84) and env.num_actions == 26
     assert list(L) == ["command", "gravity", "joint_pos", "joint_vel", "prev_action", "ang_vel", "avg_ang_speed",
                        "gait_phase"]
-    assert torch.allclose(o[:, L["gravity"]], torch.tensor([0.0, 0.0, -1.0]), atol=0.05)  # upright
-    assert torch.allclose(o[:, L["command"]], env.commands * torch.tensor([2.0, 2.0, 0.25]))
+    assert torch.allclose(o[:, L["gravity"]], torch.tensor([0.0, 0.0, -1.0], device=env.device), atol=0.05)  # upright
+    assert torch.allclose(o[:, L["command"]], env.commands * torch.tensor([2.0, 2.0, 0.25], device=env.device))
     assert o[:, L["joint_pos"]].abs().max() < 0.2                      # near the reference pose
     assert torch.equal(o[:, L["gait_phase"]], env.clock.phase_obs)
-    a = torch.zeros(env.num_envs, env.num_actions)
+    a = torch.zeros(env.num_envs, env.num_actions, device=env.device)
     a[:, 3], a[:, 24] = 0.2, -0.5
     obs, *_ = env.step(a)
     assert torch.equal(obs["policy"][:, L["prev_action"]], a)
@@ -49,10 +48,10 @@ def test_actor_observation_layout(env):
 
 
 def test_clock_free_variant_has_79_inputs_and_23_actions():
-    e = LocoEnv(LocoConfig(num_envs=2, variant="clock_free"))
+    e = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, variant="clock_free"))
     obs = e.get_observations()
     assert e.num_actions == J and obs["policy"].shape == (2, 79) and "gait_phase" not in e.layout
-    _, rew, *_ = e.step(torch.zeros(2, J))
+    _, rew, *_ = e.step(torch.zeros(2, J, device=e.device))
     assert torch.isfinite(rew).all()
 
 
@@ -62,7 +61,7 @@ def test_randomised_parameters_in_range_and_in_the_sim(env):
     assert (env.mass_offset.abs() <= 0.05).all() and env.mass_offset.std() > 0
     assert (env.com_offset.abs() <= rd.base_com_offset).all()
     assert (env.friction >= rd.friction[0]).all() and (env.friction <= rd.friction[1]).all()
-    kp, kd = torch.tensor(ADAM_LITE.kp), torch.tensor(ADAM_LITE.kd)
+    kp, kd = torch.tensor(ADAM_LITE.kp, device=env.device), torch.tensor(ADAM_LITE.kd, device=env.device)
     assert torch.allclose(env.world.joint_kp, env.motor_strength * env.kp_scale * kp)  # MuJoCo Warp's actuators
     assert torch.allclose(env.world.joint_kd, env.motor_strength * env.kd_scale * kd)
     assert env.kp_scale.min() >= rd.kp_scale[0] and env.kp_scale.max() <= rd.kp_scale[1] and env.kp_scale.std() > 0
@@ -77,7 +76,7 @@ def test_randomised_parameters_in_range_and_in_the_sim(env):
 
 def test_push_changes_base_velocity_by_the_sampled_amount():
     rd = DomainRandConfig(push_interval=1e9, push_max_vel=0.8, force_max=0.0)
-    e = LocoEnv(LocoConfig(num_envs=4, randomization=rd))
+    e = LocoEnv(LocoConfig(num_envs=4, device=DEVICE, randomization=rd))
     v0 = e.world.root_lin_vel.clone()
     e.push_timer[1] = 0.0  # robot 1 is due
     e._perturb()
@@ -88,32 +87,32 @@ def test_push_changes_base_velocity_by_the_sampled_amount():
 
 
 def test_time_outs_and_falls(env):
-    env.reset_idx(torch.arange(env.num_envs))
+    env.reset_idx(torch.arange(env.num_envs, device=env.device))
     env.episode_length_buf[1] = env.max_episode_length - 1
     q = env.world.joint_q[2].clone()
     q[2] = 0.3  # pelvis 30 cm above the ground: fallen
-    env.world.reset(torch.tensor([2]), joint_q=q.unsqueeze(0))
-    _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+    env.world.reset(torch.tensor([2], device=env.device), joint_q=q.unsqueeze(0))
+    _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
     assert dones.tolist() == [0, 1, 1, 0, 0, 0, 0, 0]
     assert extras["time_outs"].tolist() == [False, True, False, False, False, False, False, False]
     assert env.episode_length_buf[1] == 0 and env.root_pos[2, 2] > 0.8  # both reset to a stand
 
 
 def test_nan_in_one_world_resets_that_world_only(env):
-    env.reset_idx(torch.arange(env.num_envs))
+    env.reset_idx(torch.arange(env.num_envs, device=env.device))
     for _ in range(3):
-        env.step(torch.zeros(env.num_envs, env.num_actions))
+        env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
     before = env.nonfinite_resets
     lengths = env.episode_length_buf.clone()
     env.world.joint_qd[3, 10] = float("nan")
-    obs, rew, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+    obs, rew, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
     assert dones[3] == 1 and dones.sum() == 1
     assert env.nonfinite_resets == before + 1 and extras["log"]["/nonfinite_resets"] == before + 1
     assert rew[3] == 0 and torch.isfinite(rew).all()
     assert all(torch.isfinite(v).all() for v in obs.values())
     assert torch.equal(env.episode_length_buf[[0, 1, 2, 4]], lengths[[0, 1, 2, 4]] + 1)
     # a non-finite action never reaches the sim
-    a = torch.zeros(env.num_envs, env.num_actions)
+    a = torch.zeros(env.num_envs, env.num_actions, device=env.device)
     a[5, 0] = float("inf")
     env.step(a)
     assert torch.isfinite(env.world.joint_target).all() and env.actions[5].abs().max() == 0
@@ -122,17 +121,17 @@ def test_nan_in_one_world_resets_that_world_only(env):
 def test_scripted_stand_keeps_robots_up_where_zero_actions_fall():
     # Nominal physics. The robot's soft ankle PD (kp 25) cannot hold the reference pose: a zero action falls within
     # ~1.5 s; the scripted stand (cra_warp.stand) holds it through the same PD law.
-    env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False)))
+    env = LocoEnv(LocoConfig(num_envs=4, device=DEVICE, randomization=DomainRandConfig(enabled=False)))
 
     def falls(agent):
-        env.reset_idx(torch.arange(env.num_envs))
-        fell = torch.zeros(env.num_envs, dtype=torch.bool)
+        env.reset_idx(torch.arange(env.num_envs, device=env.device))
+        fell = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
         for _ in range(200):
             _, _, dones, extras = env.step(agent())
             fell |= dones.bool() & ~extras["time_outs"]
         return fell
 
-    assert falls(lambda: torch.zeros(env.num_envs, env.num_actions)).all()
+    assert falls(lambda: torch.zeros(env.num_envs, env.num_actions, device=env.device)).all()
     assert not falls(env.stand_actions).any()
 
 
@@ -146,22 +145,23 @@ def test_rsl_rl_runner_contract(env, tmp_path):
            "actor": {**mlp, "distribution_cfg": {"class_name": "GaussianDistribution", "init_std": 1.0}},
            "critic": mlp, "algorithm": {"class_name": "PPO", "num_learning_epochs": 1, "num_mini_batches": 2},
            "run_name": "contract", "logger": "tensorboard"}
-    runner = OnPolicyRunner(env, cfg, log_dir=None, device="cpu")
+    runner = OnPolicyRunner(env, cfg, log_dir=None, device=str(env.device))
     runner.learn(1)
     assert runner.current_learning_iteration == 0
     assert isinstance(env.max_episode_length, int) and env.episode_length_buf.shape == (env.num_envs,)
-    env.reset_idx(torch.tensor([0]))  # buffers stay writable outside inference mode
+    env.reset_idx(torch.tensor([0], device=env.device))  # buffers stay writable outside inference mode
 
 
 
 def test_privileged_com_is_the_mass_weighted_link_coms(env):
     """Moving world 0's base CoM 5 cm forward (base frame) moves the whole-body CoM by m_base / M x 5 cm."""
-    ids = torch.tensor([0, 1])
+    ids = torch.tensor([0, 1], device=env.device)
     env.reset_idx(ids)  # draws random physics: the offsets are set below
-    env.world.set_base_com_offset(ids, torch.zeros(2, 3))
+    env.world.set_base_com_offset(ids, torch.zeros(2, 3, device=env.device))
     env.world.commit_physics()
     com0 = env._observations()["privileged"][:, env.priv_layout["com_pos"]]
-    env.world.set_base_com_offset(torch.tensor([0]), torch.tensor([[0.05, 0.0, 0.0]]))
+    env.world.set_base_com_offset(torch.tensor([0], device=env.device),
+                                  torch.tensor([[0.05, 0.0, 0.0]], device=env.device))
     env.world.commit_physics()
     com1 = env._observations()["privileged"][:, env.priv_layout["com_pos"]]
     m = env.world.body_mass[0]
@@ -171,7 +171,7 @@ def test_privileged_com_is_the_mass_weighted_link_coms(env):
 
 
 def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
-    env = LocoEnv(LocoConfig(num_envs=8, obs=ObsConfig(noise=False)))
+    env = LocoEnv(LocoConfig(num_envs=8, device=DEVICE, obs=ObsConfig(noise=False)))
     scale = env.cfg.obs.command_scale[2]
     rewarded = []
     rewards = env._rewards
@@ -184,7 +184,7 @@ def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
     env.command_timer[:] = 0.0  # every robot draws new commands at the end of the next step
     observed = []
     for _ in range(3):
-        obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions))
+        obs, *_ = env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
         observed.append(obs["policy"][:, env.layout["command"]][:, 2] / scale)
     for seen, paid in zip(observed[:-1], rewarded[1:]):
         assert torch.allclose(seen, paid, atol=1e-6)
@@ -199,13 +199,13 @@ def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
 def test_an_early_fall_is_demoted_by_the_whole_episode_distance():
     """Walking 0.6 m in 1 s under a 1 m/s command is more than half of what that second asked, but far less than
     half of what the 20 s episode asked: legged_gym's rule demotes it."""
-    env = LocoEnv(LocoConfig(num_envs=2, terrain="rough"))
+    env = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, terrain="rough"))
     cur = env.ground.curriculum
     cur.levels[:] = 2
     env.episode_length_buf[:] = int(1.0 / env.dt)
     env.commanded_dist[:] = 1.0
-    env.start_xy[:] = env.root_pos[:, :2] - torch.tensor([0.6, 0.0])
-    env.reset_idx(torch.tensor([0]))
+    env.start_xy[:] = env.root_pos[:, :2] - torch.tensor([0.6, 0.0], device=env.device)
+    env.reset_idx(torch.tensor([0], device=env.device))
     assert cur.levels.tolist() == [1, 2]
 
 
@@ -213,7 +213,7 @@ def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
     from cra_warp.sim import WorldConfig
 
     cfgs = {b: LocoConfig(num_envs=4, world=WorldConfig(backend=b), obs=ObsConfig(noise=False)) for b in
-            ("newton", "mujoco")}
+            ("newton", "mujoco")}  # on the CPU, where both backends run
     envs = {b: LocoEnv(c) for b, c in cfgs.items()}
     obs = {b: e.get_observations() for b, e in envs.items()}
     for k in ("policy", "privileged", "height_map"):
@@ -234,10 +234,11 @@ def test_reward_sum_clips_at_zero_skips_zero_weights_and_needs_the_clock_for_the
     rw = env.cfg.rewards
     saved = dict(rw.weights), rw.only_positive_rewards
     try:
-        env.step(0.3 * torch.randn(env.num_envs, env.num_actions, generator=torch.Generator().manual_seed(0)))
+        gen = torch.Generator().manual_seed(0)
+        env.step(0.3 * torch.randn(env.num_envs, env.num_actions, generator=gen).to(env.device))
         rw.weights["feet_parallel"] = 0.0
         rw.weights["orientation"] = -1e4          # a large penalty: some totals go negative
-        env.world.root_quat[:4] = torch.tensor([0.2, 0.0, 0.0, 0.98])  # tilted robots pay it
+        env.world.root_quat[:4] = torch.tensor([0.2, 0.0, 0.0, 0.98], device=env.device)  # tilted robots pay it
         env._refresh()
         rw.only_positive_rewards = False
         raw, terms = env._rewards()
@@ -251,23 +252,23 @@ def test_reward_sum_clips_at_zero_skips_zero_weights_and_needs_the_clock_for_the
         rw.weights.clear()
         rw.weights.update(saved[0])
         rw.only_positive_rewards = saved[1]
-        env.reset_idx(torch.arange(env.num_envs))
-    free = LocoEnv(LocoConfig(num_envs=2, variant="clock_free", obs=ObsConfig(noise=False)))
-    free.step(torch.zeros(2, free.num_actions))
+        env.reset_idx(torch.arange(env.num_envs, device=env.device))
+    free = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, variant="clock_free", obs=ObsConfig(noise=False)))
+    free.step(torch.zeros(2, free.num_actions, device=free.device))
     assert "contact_pattern" not in free._rewards()[1]
 
 
 def test_fixed_cycle_ignores_the_gait_actions():
     """fixed_cycle keeps the 26-dim action but its clock runs at 1 / T_cycle whatever the gait actions say."""
-    e = LocoEnv(LocoConfig(num_envs=2, variant="fixed_cycle", obs=ObsConfig(noise=False)))
+    e = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, variant="fixed_cycle", obs=ObsConfig(noise=False)))
     assert e.num_actions == J + 3
-    a = torch.zeros(2, e.num_actions)
-    a[:, J:] = torch.tensor([[1.0, 0.5, -0.5], [-1.0, -0.3, 0.7]])
+    a = torch.zeros(2, e.num_actions, device=e.device)
+    a[:, J:] = torch.tensor([[1.0, 0.5, -0.5], [-1.0, -0.3, 0.7]], device=e.device)
     for k in range(5):
         e.step(a)
-        assert torch.allclose(e.clock.phase, torch.full((2,), (k + 1) * e.dt), atol=1e-6)
+        assert torch.allclose(e.clock.phase, torch.full((2,), (k + 1) * e.dt, device=e.device), atol=1e-6)
         assert (e.clock.deltas == 0).all()
-    adaptive = LocoEnv(LocoConfig(num_envs=2, obs=ObsConfig(noise=False)))
+    adaptive = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, obs=ObsConfig(noise=False)))
     adaptive.step(a)
     assert not torch.allclose(adaptive.clock.phase[0], adaptive.clock.phase[1])  # the same actions do steer it
 
@@ -276,7 +277,7 @@ def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
     c = env.cfg.commands
     cmds = []
     for _ in range(200):
-        env._resample_commands(torch.arange(env.num_envs))
+        env._resample_commands(torch.arange(env.num_envs, device=env.device))
         cmds.append(env.commands.clone())
     cmds = torch.cat(cmds)
     xy = cmds[:, :2].norm(dim=-1)
@@ -288,23 +289,24 @@ def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
     # heading mode: a robot commanded to move turns towards its heading (the sign of the yaw-rate command)
     from cra_warp.rotations import yaw
 
-    env.hold_commands(torch.tensor([0.5, 0.0]).expand(env.num_envs, 2),
-                      yaw(env.world.root_quat) + torch.linspace(-1.0, 1.0, env.num_envs))
-    sign = torch.sign(torch.linspace(-1.0, 1.0, env.num_envs))
+    env.hold_commands(torch.tensor([0.5, 0.0], device=env.device).expand(env.num_envs, 2),
+                      yaw(env.world.root_quat) + torch.linspace(-1.0, 1.0, env.num_envs, device=env.device))
+    sign = torch.sign(torch.linspace(-1.0, 1.0, env.num_envs, device=env.device))
     assert (torch.sign(env.commands[:, 2]) == sign).all()
-    env.reset_idx(torch.arange(env.num_envs))
+    env.reset_idx(torch.arange(env.num_envs, device=env.device))
 
 
 def test_effort_scaled_actions_ask_each_joint_for_the_same_share_of_its_torque():
     """action_scale_effort: a unit action moves each stiff joint's target by factor x effort / kp (capped), so the
     PD torque it asks for is the same share of every joint's limit; ankle roll (kp 0) keeps the robot's scale."""
-    e = LocoEnv(LocoConfig(num_envs=2, obs=ObsConfig(noise=False), action_scale_effort=0.5, action_scale_max=1.0,
+    e = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, obs=ObsConfig(noise=False), action_scale_effort=0.5,
+                           action_scale_max=1.0,
                            randomization=DomainRandConfig(enabled=False)))
     r = ADAM_LITE
-    kp, effort = torch.tensor(r.kp), torch.tensor(r.effort_limit)
-    e.step(torch.ones(2, e.num_actions))
-    step = e.world.joint_target[0] - torch.tensor(r.default_q)
+    kp, effort = torch.tensor(r.kp, device=e.device), torch.tensor(r.effort_limit, device=e.device)
+    e.step(torch.ones(2, e.num_actions, device=e.device))
+    step = e.world.joint_target[0] - torch.tensor(r.default_q, device=e.device)
     stiff = (kp > 0) & (0.5 * effort / kp.clamp(min=1e-6) < 1.0)
     assert torch.allclose((kp * step)[stiff], 0.5 * effort[stiff], rtol=1e-5)
-    assert torch.allclose(step[(kp > 0) & ~stiff], torch.ones(int(((kp > 0) & ~stiff).sum())))
-    assert torch.allclose(step[kp == 0], torch.full((int((kp == 0).sum()),), r.action_scale))
+    assert torch.allclose(step[(kp > 0) & ~stiff], torch.ones(int(((kp > 0) & ~stiff).sum()), device=e.device))
+    assert torch.allclose(step[kp == 0], torch.full((int((kp == 0).sum()),), r.action_scale, device=e.device))

@@ -5,7 +5,7 @@ import pytest
 import torch
 import warp as wp
 
-from conftest import stand_steps
+from conftest import device_for, stand_steps
 from cra_warp.sim import FREE_Q, World, WorldConfig, make_world
 from robots.adam_lite import ADAM_LITE
 
@@ -19,7 +19,7 @@ def backend(request):
 
 @pytest.fixture(scope="module")
 def world(backend):
-    return make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=backend))
+    return make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=backend, device=device_for(backend)))
 
 
 def sensor_lag(w: World) -> float:
@@ -94,7 +94,7 @@ def _airborne_state(w: World, ids: torch.Tensor) -> torch.Tensor:
 
 
 def test_external_force_changes_momentum_by_impulse(world):
-    ids = torch.arange(world.num_envs)
+    ids = torch.arange(world.num_envs, device=world.joint_pos.device)
     world.reset(ids, joint_q=_airborne_state(world, ids))
     force = 100.0
     world.base_force[1, 0] = force  # +x on robot 1 only
@@ -108,17 +108,18 @@ def test_external_force_changes_momentum_by_impulse(world):
     assert dv[1, 0] == pytest.approx(expected.item(), rel=0.02)
     # armature (rotor inertia, not reacted on the parent link) lets internal PD motion leak ~1e-3 m/s
     assert dv[0, 0].abs() < 2e-3 and dv[2:, 0].abs().max() < 2e-3
-    assert dv[:, 2] == pytest.approx([-G * t] * world.num_envs, rel=0.01)  # and gravity acts on all
+    assert dv[:, 2].tolist() == pytest.approx([-G * t] * world.num_envs, rel=0.01)  # and gravity acts on all
     world.base_force.zero_()
 
 
 def test_impulse_shifts_com_velocity(world):
-    ids = torch.arange(world.num_envs)
+    d = world.joint_pos.device
+    ids = torch.arange(world.num_envs, device=d)
     world.reset(ids, joint_q=_airborne_state(world, ids))
     world.step()
     v0 = com_velocity(world).clone()
-    dv = torch.tensor([[0.5, -0.3, 0.0]])
-    world.apply_impulse(torch.tensor([2]), dv)
+    dv = torch.tensor([[0.5, -0.3, 0.0]], device=d)
+    world.apply_impulse(torch.tensor([2], device=d), dv)
     world.step()
     change = com_velocity(world) - v0
     change[:, 2] += G * world.cfg.env_dt
@@ -128,8 +129,10 @@ def test_impulse_shifts_com_velocity(world):
 
 def _rollout(w: World, reset_ids=None) -> torch.Tensor:
     """30 steps with distinct pushes per robot, an optional reset of some, 20 more; returns the full state."""
+    d = w.joint_pos.device
     w.reset()
-    w.apply_impulse(torch.arange(w.num_envs), torch.linspace(-0.4, 0.4, w.num_envs).unsqueeze(1).repeat(1, 3))
+    w.apply_impulse(torch.arange(w.num_envs, device=d),
+                    torch.linspace(-0.4, 0.4, w.num_envs, device=d).unsqueeze(1).repeat(1, 3))
     for _ in range(30):
         w.step()
     if reset_ids is not None:
@@ -141,23 +144,25 @@ def _rollout(w: World, reset_ids=None) -> torch.Tensor:
 
 def test_reset_of_a_subset_leaves_others_bitwise_untouched(world):
     plain = _rollout(world)
-    other = make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=world.cfg.backend))
-    with_reset = _rollout(other, reset_ids=torch.tensor([1, 3]))
+    d = world.joint_pos.device
+    other = make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=world.cfg.backend, device=world.cfg.device))
+    with_reset = _rollout(other, reset_ids=torch.tensor([1, 3], device=d))
     assert torch.equal(plain[[0, 2]], with_reset[[0, 2]])
     assert not torch.equal(plain[[1, 3]], with_reset[[1, 3]])
     # a reset world is back at the standing pose, at rest
-    other.reset(torch.tensor([1]))
+    other.reset(torch.tensor([1], device=d))
     assert torch.equal(other.joint_q[1], other.default_joint_q[1])
     assert other.joint_qd[1].abs().max() == 0
 
 
 def test_randomised_parameters_reach_the_solver(world):
     """A heavier robot presses harder on the ground; a weaker motor sags; changes stay in their own world."""
+    d = world.joint_pos.device
     world.reset()
-    ids = torch.tensor([1])
-    scale = torch.full((1, world.num_bodies), 1.1)
+    ids = torch.tensor([1], device=d)
+    scale = torch.full((1, world.num_bodies), 1.1, device=d)
     world.set_mass_scale(ids, scale)
-    world.set_actuators(torch.tensor([2]), torch.full((1, ADAM_LITE.num_joints), 0.8))
+    world.set_actuators(torch.tensor([2], device=d), torch.full((1, ADAM_LITE.num_joints), 0.8, device=d))
     world.commit_physics()
     assert total_mass(world)[1] == pytest.approx(1.1 * total_mass(world)[0].item(), rel=1e-6)
     fz = []
@@ -167,36 +172,38 @@ def test_randomised_parameters_reach_the_solver(world):
     knee = ADAM_LITE.joint_names.index("kneePitch_Left")
     assert world.joint_kp[2, knee] == pytest.approx(0.8 * ADAM_LITE.kp[knee])
     assert world.root_pos[2, 2] < world.root_pos[0, 2] - 0.002  # weaker motors sag further under the same load
-    world.set_mass_scale(ids, torch.ones(1, world.num_bodies))
-    world.set_actuators(torch.tensor([2]), torch.ones(1, ADAM_LITE.num_joints))
+    world.set_mass_scale(ids, torch.ones(1, world.num_bodies, device=d))
+    world.set_actuators(torch.tensor([2], device=d), torch.ones(1, ADAM_LITE.num_joints, device=d))
     world.commit_physics()
 
 
 def test_friction_per_world(world):
     """On ice a pushed robot slides further than on rubber."""
+    d = world.joint_pos.device
     world.reset()
-    world.set_friction(torch.tensor([0]), torch.tensor([0.05]))
-    world.set_friction(torch.tensor([1, 2, 3]), torch.tensor([1.0, 1.0, 1.0]))
+    world.set_friction(torch.tensor([0], device=d), torch.tensor([0.05], device=d))
+    world.set_friction(torch.tensor([1, 2, 3], device=d), torch.tensor([1.0, 1.0, 1.0], device=d))
     world.commit_physics()
     world.base_force[:, 0] = 60.0  # a steady horizontal shove, more than ice friction (0.05 x 575 N) holds
     start = world.body_pos[:, world.body_index["toeLeft"], 0].clone()
     stand_steps(world, 50)
     slide = (world.body_pos[:, world.body_index["toeLeft"], 0] - start).abs()  # the feet slip out backwards
     world.base_force.zero_()
-    world.set_friction(torch.tensor([0]), torch.tensor([1.0]))
+    world.set_friction(torch.tensor([0], device=d), torch.tensor([1.0], device=d))
     world.commit_physics()
     assert slide[0] > 0.05 and slide[0] > 5 * slide[1:].max()
 
 
 def test_all_bodies_colliding_with_the_ground_still_stand(backend):
     """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=2, contacts="all", backend=backend))
+    w = make_world(ADAM_LITE, WorldConfig(num_envs=2, contacts="all", backend=backend, device=device_for(backend)))
     h0 = w.root_pos[:, 2].clone()
     stand_steps(w, 150)
     assert (w.root_pos[:, 2] - h0).abs().max() < 0.02
-    q = _airborne_state(w, torch.arange(2))
+    ids = torch.arange(2, device=w.joint_pos.device)
+    q = _airborne_state(w, ids)
     q[:, 2] = 0.3  # pelvis 30 cm up: the legs and pelvis must rest on the ground, not pass through it
-    w.reset(torch.arange(2), joint_q=q)
+    w.reset(ids, joint_q=q)
     for _ in range(100):
         w.step()
     assert w.body_pos[..., 2].min() > -0.05  # with contacts="feet" the same fall sinks the body ~1.1 m
@@ -207,19 +214,21 @@ def test_applied_torque_is_the_explicit_pd_law_with_its_clamp(backend):
     is kp (q* - q) - kd qd clamped at the effort limit, evaluated at the state the physics step starts from. A
     near-zero time step keeps the state where it was set, so the law can be evaluated at the state after step()."""
     gen = torch.Generator().manual_seed(0)
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False, backend=backend))
-    n, J = w.num_envs, ADAM_LITE.num_joints
-    ids = torch.arange(n)
-    w.set_actuators(ids, 0.8 + 0.4 * torch.rand(n, J, generator=gen), 0.8 + 0.4 * torch.rand(n, J, generator=gen),
-                    0.8 + 0.4 * torch.rand(n, J, generator=gen))
+    w = make_world(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False, backend=backend,
+                                          device=device_for(backend)))
+    n, J, d = w.num_envs, ADAM_LITE.num_joints, w.joint_pos.device
+    rand = lambda *shape: torch.rand(*shape, generator=gen).to(d)  # noqa: E731  (drawn on the CPU: same draws)
+    randn = lambda *shape: torch.randn(*shape, generator=gen).to(d)  # noqa: E731
+    ids = torch.arange(n, device=d)
+    w.set_actuators(ids, 0.8 + 0.4 * rand(n, J), 0.8 + 0.4 * rand(n, J), 0.8 + 0.4 * rand(n, J))
     w.commit_physics()
     q = w.default_joint_q.clone()
     q[:, 2] = 3.0                                     # in the air: no contacts
-    q[:, FREE_Q:] += 0.2 * torch.randn(n, J, generator=gen)
-    qd = torch.zeros(n, 6 + J)
-    qd[:, 6:] = 2.0 * torch.randn(n, J, generator=gen)
+    q[:, FREE_Q:] += 0.2 * randn(n, J)
+    qd = torch.zeros(n, 6 + J, device=d)
+    qd[:, 6:] = 2.0 * randn(n, J)
     w.reset(ids, joint_q=q, joint_qd=qd)
-    w.joint_target.copy_(w.joint_pos + 0.5 * torch.randn(n, J, generator=gen))  # some torques saturate
+    w.joint_target.copy_(w.joint_pos + 0.5 * randn(n, J))  # some torques saturate
     w.step()
     law = w.joint_kp * (w.joint_target - w.joint_pos) - w.joint_kd * w.joint_vel
     clamped = torch.maximum(torch.minimum(law, w.joint_effort_limit), -w.joint_effort_limit)
@@ -233,11 +242,12 @@ def test_newton_and_mujoco_agree_on_a_trajectory():
     precision, and the closed loop feeds differences back)."""
     traj = {}
     for backend in ("newton", "mujoco"):
-        w = make_world(ADAM_LITE, WorldConfig(num_envs=2, backend=backend))
+        w = make_world(ADAM_LITE, WorldConfig(num_envs=2, backend=backend, device=device_for(backend)))
+        d = w.joint_pos.device
         w.reset()
-        w.apply_impulse(torch.tensor([1]), torch.tensor([[0.3, 0.1, 0.0]]))
+        w.apply_impulse(torch.tensor([1], device=d), torch.tensor([[0.3, 0.1, 0.0]], device=d))
         steps = []
-        stand_steps(w, int(1.0 / w.cfg.env_dt), each=lambda k: steps.append(w.joint_q.clone()))
+        stand_steps(w, int(1.0 / w.cfg.env_dt), each=lambda k: steps.append(w.joint_q.to("cpu", copy=True)))
         traj[backend] = torch.stack(steps)
     diff = (traj["newton"] - traj["mujoco"]).abs()
     assert diff[..., FREE_Q:].max() < 0.01 and diff[..., :3].max() < 0.01
