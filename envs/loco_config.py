@@ -15,7 +15,9 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
 - Actuators: the robot's explicit PD (robots/adam_lite/config.py, cra_warp.sim) at every 5 ms physics step.
 - Physical randomisation (mass, CoM, motor strength, PD gains +-20%, friction) is resampled per env at every
-  reset; pushes and external forces come on per-env timers during episodes.
+  reset; pushes and external forces come on per-env timers during episodes. An optional difficulty curriculum
+  (DifficultyConfig, envs/difficulty.py) starts with small commands and/or the nominal robot and widens both as
+  the robots survive longer.
 - Heading mode: the yaw-rate command is set from the heading error at the end of each step, before the
   observation, so the command a policy observes is the one its next reward tracks.
 - Gait phase input (2 of the paper's 84): sin and cos of the global phase 2 pi phi / T_cycle. The leg signals
@@ -137,6 +139,24 @@ class DomainRandConfig:
 
 
 @dataclass
+class DifficultyConfig:
+    """What the difficulty curriculum (envs/difficulty.py) scales with its level, and how the level moves."""
+
+    commands: bool = False            # velocity commands x level (small ones become "stand still")
+    randomization: bool = False       # physical randomisation ranges shrunk towards nominal, pushes/shoves x level
+    start: float = 0.0                # level at the start of training
+    step: float = 0.05                # change per move
+    interval: int = 24                # [env steps] between moves (24: once per PPO iteration)
+    promote: float = 0.5              # up when the episodes ended in the window lasted >= this x the episode length
+    demote: float = 0.25              # down when they lasted < this x the episode length
+
+    def __post_init__(self):
+        if not 0.0 <= self.start <= 1.0 or self.step <= 0 or self.interval < 1 or self.demote > self.promote:
+            raise ValueError(f"DifficultyConfig needs 0 <= start <= 1, step > 0, interval >= 1 and demote <= promote, "
+                             f"got {self}")
+
+
+@dataclass
 class LocoConfig:
     num_envs: int = 64
     device: str = "cpu"
@@ -148,6 +168,7 @@ class LocoConfig:
     obs: ObsConfig = field(default_factory=ObsConfig)
     rewards: RewardConfig = field(default_factory=RewardConfig)
     randomization: DomainRandConfig = field(default_factory=DomainRandConfig)
+    difficulty: DifficultyConfig = field(default_factory=DifficultyConfig)
     terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
     course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
     clip_joint_actions: float = 10.0

@@ -20,6 +20,7 @@ from cra_warp.stand import ScriptedStand
 from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
 from cra_warp.sim import make_world
 from envs import observations as obs_layout
+from envs.difficulty import Difficulty
 from envs.ground import Ground
 from envs.loco_config import LocoConfig
 from envs.rewards import TERMS
@@ -45,6 +46,7 @@ class LocoEnv(VecEnv):
         self.world = make_world(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
+        self.difficulty = Difficulty(cfg.difficulty, self.max_episode_length, self.device)
         self.stand = ScriptedStand(robot, self.device)
         self._all_ids = torch.arange(N, device=self.device)
         d = dict(device=self.device)
@@ -151,6 +153,7 @@ class LocoEnv(VecEnv):
         self._advance_history()
 
         extras = {"time_outs": time_out & ~fell & ~nonfinite, "log": {}}
+        self.difficulty.record(self.episode_length_buf, dones & ~nonfinite)
         ids = dones.nonzero().flatten()
         if len(ids):
             extras["log"] = self._episode_log(ids)
@@ -324,7 +327,7 @@ class LocoEnv(VecEnv):
             return
         c = self.cfg.commands
         cmd = torch.stack([self._uniform(*c.lin_vel_x, n), self._uniform(*c.lin_vel_y, n),
-                           self._uniform(*c.ang_vel_yaw, n)], -1)
+                           self._uniform(*c.ang_vel_yaw, n)], -1) * self.difficulty.command_scale
         cmd[:, :2] *= (cmd[:, :2].norm(dim=-1, keepdim=True) >= c.min_speed)
         standing = torch.rand(n, device=self.device, generator=self.gen) < c.standing_fraction
         cmd = torch.where(standing.unsqueeze(-1), 0.0, cmd)
@@ -372,13 +375,14 @@ class LocoEnv(VecEnv):
         self.push_timer -= self.dt
         push = self.push_timer <= 0
         angle = self._uniform(-math.pi, math.pi, N)
-        speed = self._uniform(0.0, rd.push_max_vel, N) * push
+        s = self.difficulty.randomization_scale
+        speed = self._uniform(0.0, rd.push_max_vel, N) * (s * push)
         dv = torch.stack([speed * torch.cos(angle), speed * torch.sin(angle), torch.zeros_like(speed)], -1)
         self.world.apply_impulse(self._all_ids, dv)
         self.push_timer.masked_fill_(push, rd.push_interval)
         self.force_timer -= self.dt
         shove = (self.force_timer <= 0).unsqueeze(-1)
-        force = self._uniform(-rd.force_max, rd.force_max, N, 3)
+        force = s * self._uniform(-rd.force_max, rd.force_max, N, 3)
         self.world.base_force[:, :3] = torch.where(shove, force, self.world.base_force[:, :3])
         self.force_timer.masked_fill_(shove.squeeze(-1), rd.force_interval)
         over = self.force_timer < rd.force_interval - rd.force_duration
@@ -389,15 +393,22 @@ class LocoEnv(VecEnv):
         rd, n, B, J = self.cfg.randomization, len(ids), self.world.num_bodies, self.robot.num_joints
         if not rd.enabled:
             return
-        self.world.set_mass_scale(ids, self._uniform(*rd.mass_scale, n, B))
+        s = self.difficulty.randomization_scale
+
+        def around_one(lo: float, hi: float, *shape):  # a range shrunk towards the nominal 1 by the difficulty
+            if isinstance(s, torch.Tensor):  # (the curriculum is on; off, the configured range exactly)
+                lo, hi = 1.0 + s * (lo - 1.0), 1.0 + s * (hi - 1.0)
+            return self._uniform(lo, hi, *shape)
+
+        self.world.set_mass_scale(ids, around_one(*rd.mass_scale, n, B))
         self.mass_offset[ids] = self.world.body_mass[ids].sum(1) / self.nominal_mass[ids] - 1.0
-        self.com_offset[ids] = self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
+        self.com_offset[ids] = s * self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
         self.world.set_base_com_offset(ids, self.com_offset[ids])
-        self.motor_strength[ids] = self._uniform(*rd.motor_strength, n, J)
-        self.kp_scale[ids] = self._uniform(*rd.kp_scale, n, J)
-        self.kd_scale[ids] = self._uniform(*rd.kd_scale, n, J)
+        self.motor_strength[ids] = around_one(*rd.motor_strength, n, J)
+        self.kp_scale[ids] = around_one(*rd.kp_scale, n, J)
+        self.kd_scale[ids] = around_one(*rd.kd_scale, n, J)
         self.world.set_actuators(ids, self.motor_strength[ids], self.kp_scale[ids], self.kd_scale[ids])
-        self.friction[ids] = self._uniform(*rd.friction, n)
+        self.friction[ids] = around_one(*rd.friction, n)
         self.world.set_friction(ids, self.friction[ids])
         self.world.commit_physics()
 
@@ -406,5 +417,6 @@ class LocoEnv(VecEnv):
         log = {f"/reward/{k}": (v[ids] / secs).mean() for k, v in self.episode_sums.items()}
         log["/episode_length_s"] = secs.mean()
         log["/terrain_level"] = self.ground.mean_level()
+        log["/difficulty"] = self.difficulty.level.clone()
         return log
 

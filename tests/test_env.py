@@ -310,3 +310,31 @@ def test_effort_scaled_actions_ask_each_joint_for_the_same_share_of_its_torque()
     assert torch.allclose((kp * step)[stiff], 0.5 * effort[stiff], rtol=1e-5)
     assert torch.allclose(step[(kp > 0) & ~stiff], torch.ones(int(((kp > 0) & ~stiff).sum()), device=e.device))
     assert torch.allclose(step[kp == 0], torch.full((int((kp == 0).sum()),), r.action_scale, device=e.device))
+
+
+def test_difficulty_curriculum_scales_commands_and_randomisation_with_its_level():
+    from envs.loco_config import DifficultyConfig
+
+    n = 16
+    e = LocoEnv(LocoConfig(num_envs=n, device=DEVICE, difficulty=DifficultyConfig(
+        commands=True, randomization=True, interval=1, step=0.5)))
+    d, rd, dev = e.difficulty, e.cfg.randomization, e.device
+    everyone = torch.ones(n, dtype=torch.bool, device=dev)
+    assert float(d.level) == 0.0  # level 0: the nominal robot, asked to stand
+    for name in ("motor_strength", "kp_scale", "kd_scale", "friction"):
+        assert (getattr(e, name) == 1.0).all(), name
+    assert (e.com_offset == 0).all() and (e.commands == 0).all()
+    d.record(torch.full((n,), e.max_episode_length, device=dev), everyone)   # whole episodes: one step up
+    assert float(d.level) == 0.5
+    e.reset_idx(torch.arange(n, device=dev))
+    lo, hi = 1.0 + 0.5 * (rd.motor_strength[0] - 1.0), 1.0 + 0.5 * (rd.motor_strength[1] - 1.0)
+    assert e.motor_strength.min() >= lo - 1e-6 and e.motor_strength.max() <= hi + 1e-6
+    assert (e.motor_strength - 1.0).abs().max() > 0.05                      # but no longer nominal
+    assert e.com_offset.abs().max() <= 0.5 * rd.base_com_offset + 1e-6 and e.com_offset.abs().max() > 0
+    c = e.cfg.commands
+    assert e.commands[:, 0].abs().max() <= 0.5 * max(map(abs, c.lin_vel_x)) + 1e-6
+    d.record(torch.full((n,), 10, device=dev), ~everyone)                    # nothing ended: the level stays
+    assert float(d.level) == 0.5
+    d.record(torch.full((n,), 10, device=dev), everyone)                     # early falls: one step down
+    assert float(d.level) == 0.0
+    assert float(LocoEnv(LocoConfig(num_envs=2, device=DEVICE)).difficulty.level) == 1.0  # off: the whole task

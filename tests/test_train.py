@@ -263,3 +263,18 @@ def test_resume_from_a_directory_takes_its_newest_checkpoint(tmp_path):
             (tmp_path / run / f"model_{it}.pt").write_bytes(b"x")
     (tmp_path / "b" / "model_final.pt").write_bytes(b"x")
     assert train_cli.newest_checkpoint(tmp_path) == tmp_path / "a" / "model_100.pt"
+
+
+def test_resume_keeps_the_difficulty_level(tmp_path):
+    """A run with the difficulty curriculum stores its level in every checkpoint; --resume continues from it (the
+    resumed iteration may move it by one step), not from the configured start."""
+    common = ["--num-envs", "4", "--max-iterations", "1", "--save-interval", "1", "--log-dir", str(tmp_path),
+              "--quiet", "--no-export", "--sim", "mujoco"]
+    assert train_cli.main([*common, "--override", "difficulty.commands=true", "difficulty.start=0.35"]) == 0
+    first = next(tmp_path.iterdir())
+    assert torch.load(first / "model_0.pt", weights_only=False)["infos"]["difficulty_level"] == pytest.approx(0.35)
+    assert train_cli.main([*common, "--resume", str(first / "model_0.pt"), "--override", "difficulty.commands=true",
+                           "difficulty.start=0.0"]) == 0
+    second = next(d for d in tmp_path.iterdir() if d != first)
+    level = torch.load(second / "model_1.pt", weights_only=False)["infos"]["difficulty_level"]
+    assert level == pytest.approx(0.35) or level == pytest.approx(0.30)

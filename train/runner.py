@@ -64,7 +64,10 @@ class CraRunner(OnPolicyRunner):
 
     def save(self, path: str, infos: dict | None = None) -> None:
         tmp = f"{path}.tmp"
-        super().save(tmp, {**self.run_info, **(infos or {})})
+        state = {}
+        if hasattr(self.env, "difficulty"):  # the curriculum's level: a resumed run continues where it was
+            state["difficulty_level"] = float(self.env.difficulty.level)
+        super().save(tmp, {**self.run_info, **state, **(infos or {})})
         os.replace(tmp, path)
 
     def _configure_multi_gpu(self) -> None:

@@ -230,8 +230,10 @@ def run(a: TrainArgs):
         write_json(run_dir / "config.json", config, indent=2)
     if a.resume is not None:
         check_resume(a.resume, env, learner, rank)
-        load_checkpoint(a.resume, runner)
+        infos = load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
+        if "difficulty_level" in (infos or {}):
+            env.difficulty.level.fill_(infos["difficulty_level"])
     torch.set_num_threads(threads)
     runner.learn(a.max_iterations)
     if rank == 0 and a.export:
