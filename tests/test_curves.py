@@ -30,6 +30,11 @@ def test_arms_within_and_outside_the_seed_spread(tmp_path):
     assert out.stat().st_size > 10_000
     assert curves.main([f"a={a1},{a2}", f"c={c1}", "--last", "1", "--out", str(out), "--json", str(js)]) == 0
     assert not json.loads(js.read_text())["summary"]["Train/mean_reward"]["within_spread"]
+    # --upto: only the first iterations of each run (c1 is a's equal up to iteration 2)
+    assert curves.main([f"a={a1},{a2}", f"c={c1}", "--last", "1", "--upto", "2", "--out", str(out), "--json",
+                        str(js)]) == 0
+    s = json.loads(js.read_text())["summary"]["Train/mean_reward"]
+    assert s["arms"]["c"]["mean"] == 3.0 and s["difference"] == 0.0
 
 
 def test_bad_arms_are_one_line_errors(tmp_path, capsys):

@@ -5,8 +5,9 @@
 Each ARM=DIR[,DIR...] names one arm and its runs (one per seed; a run directory is searched for TensorBoard event
 files). Per arm the figure draws every seed thin and the seed mean thick, one panel per tag (default: mean reward
 and mean episode length per iteration). The JSON holds the curves and, per tag, each arm's mean over the last
-``--last`` iterations with its seed-to-seed spread (max - min of the per-seed means), and whether the arms' means
-differ by less than the larger spread ("within_spread"): the test the speed work states for "learning unchanged".
+``--last`` iterations (of those up to ``--upto``: a longer campaign can serve as one seed of an arm) with its
+seed-to-seed spread (max - min of the per-seed means), and whether the arms' means differ by less than the larger
+spread ("within_spread"): the test the speed work states for "learning unchanged".
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ from cra_warp.atomic_json import write_json
 TAGS = ("Train/mean_reward", "Train/mean_episode_length")
 
 
-def read_scalars(run: Path, tags: tuple[str, ...]) -> dict[str, list[tuple[int, float]]]:
-    """{tag: [(iteration, value), ...]} from the TensorBoard event files under ``run``."""
+def read_scalars(run: Path, tags: tuple[str, ...], upto: int | None = None) -> dict[str, list[tuple[int, float]]]:
+    """{tag: [(iteration, value), ...]} from the TensorBoard event files under ``run``, iterations <= ``upto``."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     files = sorted(run.rglob("events.out.tfevents.*"))
@@ -33,7 +34,7 @@ def read_scalars(run: Path, tags: tuple[str, ...]) -> dict[str, list[tuple[int, 
         acc.Reload()
         for t in tags:
             if t in acc.Tags()["scalars"]:
-                out[t].update({e.step: e.value for e in acc.Scalars(t)})
+                out[t].update({e.step: e.value for e in acc.Scalars(t) if upto is None or e.step <= upto})
     return {t: sorted(v.items()) for t, v in out.items()}
 
 
@@ -98,6 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("arms", nargs="+", help="NAME=DIR[,DIR...] (one run directory per seed)")
     p.add_argument("--tags", nargs="+", default=list(TAGS), help="TensorBoard scalar tags, one panel each")
     p.add_argument("--last", type=int, default=10, help="iterations averaged for the summary")
+    p.add_argument("--upto", type=int, help="only iterations up to this one (a longer run as one seed of an arm)")
     p.add_argument("--title", default="")
     p.add_argument("--out", type=Path, required=True, help="PNG to write")
     p.add_argument("--json", type=Path, help="write curves and summary here")
@@ -111,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
             name, paths = parse_arm(text)
             arms[name] = []
             for d in paths:
-                r = read_scalars(d, tags)
+                r = read_scalars(d, tags, a.upto)
                 empty = [t for t in tags if not r[t]]
                 if empty:
                     raise ValueError(f"{d}: no values for {', '.join(empty)}")
