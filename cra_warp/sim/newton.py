@@ -45,6 +45,10 @@ class NewtonWorld:
         self.robot = robot
         self.cfg = cfg = cfg or WorldConfig()
         self.device = wp.get_device(cfg.device)
+        # Warp's work goes on torch's current stream: the task writes the views with torch ops, which CUDA orders on
+        # that stream, and Warp's own stream would race them. The CPU has no streams (None: Warp's scopes no-op).
+        self._stream = wp.stream_from_torch(torch.cuda.current_stream(str(self.device))) if self.device.is_cuda \
+            else None
         self.num_envs = N = cfg.num_envs
         t0 = time.perf_counter()
 
@@ -87,10 +91,11 @@ class NewtonWorld:
         # Warp captures graphs on the CPU, and on CUDA only with the stream-ordered memory pool (as Newton's
         # examples gate it); elsewhere the step launches its kernels one by one.
         if cfg.capture and (self.device.is_cpu or wp.is_mempool_enabled(self.device)):
-            self._simulate()  # warm-up outside the capture: kernels compile and load here
-            self.reset()
-            with wp.ScopedCapture(device=self.device) as cap:
-                self._simulate()
+            with wp.ScopedStream(self._stream):
+                self._simulate()  # warm-up outside the capture: kernels compile and load here
+                self.reset()
+                with wp.ScopedCapture(device=self.device) as cap:
+                    self._simulate()
             self.graph = cap.graph
             self.reset()
         self.build_seconds = time.perf_counter() - t0
@@ -272,12 +277,13 @@ class NewtonWorld:
 
     def step(self):
         """Advance one env step (substeps x sim_dt). The views hold the new state afterwards."""
-        if self.windows is not None:
-            self._follow_terrain()
-        if self.graph is not None:
-            wp.capture_launch(self.graph)
-        else:
-            self._simulate()
+        with wp.ScopedStream(self._stream):
+            if self.windows is not None:
+                self._follow_terrain()
+            if self.graph is not None:
+                wp.capture_launch(self.graph)
+            else:
+                self._simulate()
 
     def com(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Whole-body centre of mass [N, 3] and its velocity [N, 3], world frame: mass-weighted link CoMs (the
@@ -306,7 +312,9 @@ class NewtonWorld:
         self._warmstart[ids] = 0.0
         mask = torch.zeros(self.num_envs, dtype=torch.bool, device=dev)
         mask[ids] = True
-        newton.eval_fk(self.model, self.state_0.joint_q, self.state_0.joint_qd, self.state_0, mask=wp.from_torch(mask))
+        with wp.ScopedStream(self._stream):
+            newton.eval_fk(self.model, self.state_0.joint_q, self.state_0.joint_qd, self.state_0,
+                           mask=wp.from_torch(mask))
 
     # ---------------------------------------------------------------- physical parameters (domain randomisation)
     def set_mass_scale(self, env_ids: torch.Tensor, scale: torch.Tensor):
@@ -341,7 +349,8 @@ class NewtonWorld:
     def commit_physics(self):
         """Hand the parameters changed by set_* to the solver (one conversion for all of them, between steps)."""
         if self._changed:
-            self.solver.notify_model_changed(self._changed)
+            with wp.ScopedStream(self._stream):
+                self.solver.notify_model_changed(self._changed)
             self._changed = 0
 
     def apply_impulse(self, env_ids: torch.Tensor, delta_v: torch.Tensor):
