@@ -395,20 +395,20 @@ class LocoEnv(VecEnv):
             return
         s = self.difficulty.randomization_scale
 
-        def around_one(lo: float, hi: float, *shape):  # a range shrunk towards the nominal 1 by the difficulty
+        def around(lo: float, hi: float, *shape, nominal: float = 1.0):  # shrunk towards nominal by the difficulty
             if isinstance(s, torch.Tensor):  # (the curriculum is on; off, the configured range exactly)
-                lo, hi = 1.0 + s * (lo - 1.0), 1.0 + s * (hi - 1.0)
+                lo, hi = nominal + s * (lo - nominal), nominal + s * (hi - nominal)
             return self._uniform(lo, hi, *shape)
 
-        self.world.set_mass_scale(ids, around_one(*rd.mass_scale, n, B))
+        self.world.set_mass_scale(ids, around(*rd.mass_scale, n, B))
         self.mass_offset[ids] = self.world.body_mass[ids].sum(1) / self.nominal_mass[ids] - 1.0
         self.com_offset[ids] = s * self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
         self.world.set_base_com_offset(ids, self.com_offset[ids])
-        self.motor_strength[ids] = around_one(*rd.motor_strength, n, J)
-        self.kp_scale[ids] = around_one(*rd.kp_scale, n, J)
-        self.kd_scale[ids] = around_one(*rd.kd_scale, n, J)
+        self.motor_strength[ids] = around(*rd.motor_strength, n, J)
+        self.kp_scale[ids] = around(*rd.kp_scale, n, J)
+        self.kd_scale[ids] = around(*rd.kd_scale, n, J)
         self.world.set_actuators(ids, self.motor_strength[ids], self.kp_scale[ids], self.kd_scale[ids])
-        self.friction[ids] = around_one(*rd.friction, n)
+        self.friction[ids] = around(*rd.friction, n, nominal=self.cfg.world.friction)
         self.world.set_friction(ids, self.friction[ids])
         self.world.commit_physics()
 

@@ -321,8 +321,9 @@ def test_difficulty_curriculum_scales_commands_and_randomisation_with_its_level(
     d, rd, dev = e.difficulty, e.cfg.randomization, e.device
     everyone = torch.ones(n, dtype=torch.bool, device=dev)
     assert float(d.level) == 0.0  # level 0: the nominal robot, asked to stand
-    for name in ("motor_strength", "kp_scale", "kd_scale", "friction"):
+    for name in ("motor_strength", "kp_scale", "kd_scale"):
         assert (getattr(e, name) == 1.0).all(), name
+    assert (e.friction == e.cfg.world.friction).all()
     assert (e.com_offset == 0).all() and (e.commands == 0).all()
     d.record(torch.full((n,), e.max_episode_length, device=dev), everyone)   # whole episodes: one step up
     assert float(d.level) == 0.5
