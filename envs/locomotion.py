@@ -376,13 +376,13 @@ class LocoEnv(VecEnv):
         push = self.push_timer <= 0
         angle = self._uniform(-math.pi, math.pi, N)
         s = self.difficulty.randomization_scale
-        speed = self._uniform(0.0, rd.push_max_vel, N) * (s * push)
+        speed = self._uniform(0.0, s * rd.push_max_vel, N) * push
         dv = torch.stack([speed * torch.cos(angle), speed * torch.sin(angle), torch.zeros_like(speed)], -1)
         self.world.apply_impulse(self._all_ids, dv)
         self.push_timer.masked_fill_(push, rd.push_interval)
         self.force_timer -= self.dt
         shove = (self.force_timer <= 0).unsqueeze(-1)
-        force = s * self._uniform(-rd.force_max, rd.force_max, N, 3)
+        force = self._uniform(-s * rd.force_max, s * rd.force_max, N, 3)
         self.world.base_force[:, :3] = torch.where(shove, force, self.world.base_force[:, :3])
         self.force_timer.masked_fill_(shove.squeeze(-1), rd.force_interval)
         over = self.force_timer < rd.force_interval - rd.force_duration
@@ -402,7 +402,7 @@ class LocoEnv(VecEnv):
 
         self.world.set_mass_scale(ids, around(*rd.mass_scale, n, B))
         self.mass_offset[ids] = self.world.body_mass[ids].sum(1) / self.nominal_mass[ids] - 1.0
-        self.com_offset[ids] = s * self._uniform(-rd.base_com_offset, rd.base_com_offset, n, 3)
+        self.com_offset[ids] = self._uniform(-s * rd.base_com_offset, s * rd.base_com_offset, n, 3)
         self.world.set_base_com_offset(ids, self.com_offset[ids])
         self.motor_strength[ids] = around(*rd.motor_strength, n, J)
         self.kp_scale[ids] = around(*rd.kp_scale, n, J)
