@@ -278,3 +278,6 @@ def test_resume_keeps_the_difficulty_level(tmp_path):
     second = next(d for d in tmp_path.iterdir() if d != first)
     level = torch.load(second / "model_1.pt", weights_only=False)["infos"]["difficulty_level"]
     assert level == pytest.approx(0.35) or level == pytest.approx(0.30)
+    from train.runner import runner_for_checkpoint  # play / eval / export: the whole task, no curriculum
+    _, env = runner_for_checkpoint(second / "model_1.pt", num_envs=2, sim="mujoco")
+    assert float(env.difficulty.level) == 1.0 and not env.difficulty.active

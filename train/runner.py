@@ -97,7 +97,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     from cra_warp.config_io import from_data
     from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg
-    from envs.loco_config import LocoConfig
+    from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
     from train.train import VARIANTS
 
@@ -121,7 +121,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
             world = dataclasses.replace(world, backend=sim)
         if whole_course:
             world = dataclasses.replace(world, terrain_window=None)
-        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device,
+        # evaluation runs the whole task: a training curriculum's level (a rebuilt env would restart it) is off
+        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device, difficulty=DifficultyConfig(),
                                       world=dataclasses.replace(world, device=device), **env_overrides)
     except (KeyError, TypeError, ValueError) as e:
         if isinstance(e, CheckpointError):
