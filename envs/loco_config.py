@@ -181,6 +181,9 @@ class LocoConfig:
     # (tools/results/ab_action_scale.json).
     action_scale_effort: float = 0.5
     action_scale_max: float = 1.0                         # [rad] cap of the per-joint scale (the soft arms)
+    # PD gains other than the robot's, {joint or joint without side: [kp, kd]} (RobotConfig.with_gains), for
+    # studies of the actuator; the run's stored robot, its checks and the deploy JSON carry the gains trained with.
+    joint_gains: dict[str, tuple[float, float]] = field(default_factory=dict)
     fall_height: float = 0.45                             # [m] pelvis above the ground under it
     fall_gravity_z: float = -0.5                          # base-frame gravity z above this = tilted over
     seed: int = 0

@@ -33,7 +33,7 @@ GRAVITY = 9.81
 class LocoEnv(VecEnv):
     def __init__(self, cfg: LocoConfig | None = None, robot: RobotConfig = ADAM_LITE):
         self.cfg = cfg = cfg or LocoConfig()
-        self.robot = robot
+        self.robot = robot = robot.with_gains(cfg.joint_gains) if cfg.joint_gains else robot
         self.device = torch.device(cfg.device)
         self.num_envs = N = cfg.num_envs
         J = robot.num_joints

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,6 +62,20 @@ class RobotConfig:
     @property
     def num_joints(self) -> int:
         return len(self.joint_names)
+
+    def with_gains(self, gains: dict[str, tuple[float, float]]) -> RobotConfig:
+        """This robot with other PD gains: {joint: (kp, kd)}; a key without the side suffix ("ankleRoll") sets
+        every joint named ``key_<side>``."""
+        kp, kd = list(self.kp), list(self.kd)
+        for key, (p, d) in gains.items():
+            ids = [i for i, n in enumerate(self.joint_names) if n == key or n.rsplit("_", 1)[0] == key]
+            if not ids:
+                raise ValueError(f"joint gains: {key!r} names no driven joint of {self.name}")
+            if p < 0 or d < 0:
+                raise ValueError(f"joint gains: {key!r} needs kp, kd >= 0, got ({p}, {d})")
+            for i in ids:
+                kp[i], kd[i] = float(p), float(d)
+        return dataclasses.replace(self, kp=tuple(kp), kd=tuple(kd))
 
 
 def robot_urdf_text(robot: RobotConfig) -> str:

@@ -22,13 +22,13 @@ from cra_warp.learning.contrastive import contrast_pairs, episode_ids, info_nce
 STEPS = 8
 
 
-def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None, class_objects=False,
+def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
                 max_samples=2048, **env_kw):
     torch.manual_seed(seed)
     cfg = LearnerConfig(num_steps_per_env=STEPS, contrast=ContrastConfig(variant=variant, max_samples=max_samples),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches))
     env = env or DummyEnv(num_envs, seed=seed, **env_kw)
-    return OnPolicyRunner(env, runner_cfg(cfg, class_objects=class_objects), log_dir=None, device="cpu"), env
+    return OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu"), env
 
 
 def fake_metadata(num_joints=23, obs_dim=84, clock=True):
@@ -55,7 +55,7 @@ def rollout_actions(actor, obs_seq):
 # ---------------------------------------------------------------- models
 @pytest.mark.parametrize("num_obs,num_actions", [(84, 26), (79, 23)])  # ours / clock-free
 def test_model_shapes(num_obs, num_actions):
-    runner, env = make_runner(num_envs=4, num_obs=num_obs, num_actions=num_actions, class_objects=True)
+    runner, env = make_runner(num_envs=4, num_obs=num_obs, num_actions=num_actions)
     actor, critic = runner.alg.actor, runner.alg.critic
     obs = env.get_observations()
     assert actor(obs).shape == (4, num_actions)

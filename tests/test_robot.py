@@ -2,6 +2,8 @@
 
 import xml.etree.ElementTree as ET
 
+import pytest
+
 from conftest import REFERENCE, need_shared
 from robots.adam_lite import ADAM_LITE
 from robots.adam_lite.description import JOINTS, TOTAL_MASS, URDF_PATH, urdf_text
@@ -39,3 +41,14 @@ def test_driven_joints_are_23_in_canonical_order():
                                  "anklePitch_Left", "ankleRoll_Left")
     for lo, q, hi in zip(r.pos_lower, r.default_q, r.pos_upper):
         assert lo < q < hi
+
+
+def test_with_gains_sets_both_sides_and_names_unknown_joints():
+    stiff = ADAM_LITE.with_gains({"ankleRoll": (40.0, 1.0), "kneePitch_Left": (400.0, 8.0)})
+    for side in ("Left", "Right"):
+        i = ADAM_LITE.joint_names.index(f"ankleRoll_{side}")
+        assert (stiff.kp[i], stiff.kd[i]) == (40.0, 1.0) and ADAM_LITE.kp[i] == 0.0
+    left, right = (ADAM_LITE.joint_names.index(f"kneePitch_{s}") for s in ("Left", "Right"))
+    assert (stiff.kp[left], stiff.kp[right]) == (400.0, ADAM_LITE.kp[right])
+    with pytest.raises(ValueError, match="'ankle' names no driven joint"):
+        ADAM_LITE.with_gains({"ankle": (1.0, 1.0)})

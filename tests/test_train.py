@@ -33,6 +33,8 @@ from train import train as train_cli
     (["--override", "obs.noise=null", "--max-iterations", "1"], "must not be null"),
     (["--override", "rewards.weights.contact_momentum=abc", "--max-iterations", "1"], "must be a finite float"),
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
+    (["--num-envs", "many"], "--num-envs"),                # tyro's own parse errors, as one line too
+    (["--no-such-flag"], "Unrecognized options: --no-such-flag"),
 ])
 def test_train_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, train_cli.main(args), word)

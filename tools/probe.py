@@ -23,7 +23,7 @@ import torch
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.train import UsageError
+from train.cli import Sim, UsageError, parse_args
 
 GROUPS = ("height_map", "foot_maps", "slope", "step")
 
@@ -36,7 +36,7 @@ class ProbeArgs:
     robots_per_level: int = 2        # robots on each (kind, level) of the course: 70 with the default course
     speed: float = 0.5
     ridge: float = 10.0              # L2 penalty on the standardised inputs
-    sim: str | None = None           # newton | mujoco; default: the checkpoint's
+    sim: Sim | None = None           # default: the checkpoint's
     seed: int = 0
     json: Path | None = None
 
@@ -136,12 +136,10 @@ def print_table(records: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
     from cra_warp.learning.checkpoint import CheckpointError
 
-    a = tyro.cli(ProbeArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
+        a = parse_args(ProbeArgs, argv, __doc__)
         if not a.checkpoints:
             raise UsageError("nothing to probe: give checkpoints")
         missing = [str(p) for p in a.checkpoints if not p.is_file()]

@@ -23,12 +23,13 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import torch
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.train import UsageError, check_device, check_sim, world_config
+from train.cli import Sim, UsageError, check_device, check_sim, parse_args, world_config
 
 STAND = "stand"  # the name of the scripted-stand floor in reports
 
@@ -41,10 +42,10 @@ class EvalArgs:
     robots_per_level: int = 10
     kinds: tuple[str, ...] = ()                      # a subset of the course kinds; default all
     device: str = "cpu"
-    sim: str | None = None                           # newton | mujoco; default: each checkpoint's (newton: stand)
+    sim: Sim | None = None                           # default: each checkpoint's (newton for the stand)
     seed: int = 0
     json: Path | None = None                         # write the records (one per policy, speed, kind, level)
-    trial: str = "course"                            # course (the evaluation course) | flat (walking trial)
+    trial: Literal["course", "flat"] = "course"      # the evaluation course, or the flat walking trial
     robots: int = 200                                # flat trial: robots per policy and speed
     seconds: float = 20.0                            # flat trial: its length [s]
 
@@ -204,13 +205,11 @@ def print_table(records: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
     from cra_warp.learning.checkpoint import CheckpointError
     from cra_warp.terrain_course import EVAL_KINDS
 
-    a = tyro.cli(EvalArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
+        a = parse_args(EvalArgs, argv, __doc__)
         if not a.checkpoints and not a.agent_stand:
             raise UsageError("nothing to evaluate: give checkpoints and/or --agent-stand")
         missing = [str(p) for p in a.checkpoints if not p.is_file()]
@@ -219,8 +218,6 @@ def main(argv: list[str] | None = None) -> int:
         bad = [k for k in a.kinds if k not in EVAL_KINDS]
         if bad:
             raise UsageError(f"--kinds must be among {', '.join(EVAL_KINDS)}, got {', '.join(bad)}")
-        if a.trial not in ("course", "flat"):
-            raise UsageError(f"--trial must be course or flat, got {a.trial!r}")
         if a.robots < 1 or not (math.isfinite(a.seconds) and a.seconds > 2.0):
             raise UsageError(f"--robots must be >= 1 and --seconds > 2, got {a.robots} and {a.seconds}")
         if a.robots_per_level < 1:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from tyro.conf import Positional
 
-from train.train import UsageError
+from train.cli import UsageError, parse_args
 
 
 def deploy_metadata(env) -> dict:
@@ -92,14 +92,12 @@ class ExportArgs:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
     from cra_warp.learning.checkpoint import CheckpointError
 
     from train.runner import runner_for_checkpoint
 
-    a = tyro.cli(ExportArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
+        a = parse_args(ExportArgs, argv, __doc__)
         runner, env = runner_for_checkpoint(a.checkpoint)
         paths = export_run(runner, env, a.out or a.checkpoint.parent / "exported")
     except (UsageError, CheckpointError) as e:

@@ -12,22 +12,23 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 from tyro.conf import Positional
 
-from train.train import TASKS, VARIANTS, UsageError, check_device, check_sim, world_config
+from train.cli import Sim, Task, UsageError, Variant, check_device, check_sim, parse_args, world_config
 
 
 @dataclass
 class PlayArgs:
     checkpoint: Positional[Path | None] = None  # a cra-train checkpoint (model_<it>.pt); for --agent policy
-    agent: str = "policy"              # policy | stand | zero | random
-    task: str | None = None            # flat | rough; default: the checkpoint's task (flat for zero/random)
-    variant: str = "ours"              # stand/zero/random agents only: a policy brings its own
+    agent: Literal["policy", "stand", "zero", "random"] = "policy"
+    task: Task | None = None           # default: the checkpoint's task (flat for stand/zero/random)
+    variant: Variant = "ours"          # stand/zero/random agents only: a policy brings its own
     num_envs: int = 16
     steps: int = 500                   # env steps (0.02 s each)
     device: str = "cpu"
-    sim: str | None = None             # newton | mujoco; default: the checkpoint's (newton for stand/zero/random)
+    sim: Sim | None = None             # default: the checkpoint's (newton for stand/zero/random)
     usd: Path | None = None            # write the rollout as an animated USD stage here
     seed: int = 0
 
@@ -100,20 +101,12 @@ def run(a: PlayArgs) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
     from cra_warp.learning.checkpoint import CheckpointError
 
-    a = tyro.cli(PlayArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
-        if a.agent not in ("policy", "stand", "zero", "random"):
-            raise UsageError(f"--agent must be policy, stand, zero or random, got {a.agent!r}")
+        a = parse_args(PlayArgs, argv, __doc__)
         if a.agent == "policy" and (a.checkpoint is None or not a.checkpoint.is_file()):
             raise UsageError(f"a policy needs a checkpoint file, got {a.checkpoint}")
-        if a.task is not None and a.task not in TASKS:
-            raise UsageError(f"--task must be one of {', '.join(TASKS)}, got {a.task!r}")
-        if a.variant not in VARIANTS:
-            raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
         if a.num_envs < 1 or a.steps < 1:
             raise UsageError(f"--num-envs and --steps must be >= 1, got {a.num_envs}, {a.steps}")
         check_sim(a.sim, a.device)

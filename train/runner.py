@@ -99,7 +99,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     from cra_warp.learning.config import LearnerConfig, runner_cfg
     from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
-    from train.train import VARIANTS
+    from train.cli import VARIANTS
 
     info = read_checkpoint(path).get("infos") or {}
     stored = info.get("config")

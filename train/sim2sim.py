@@ -30,7 +30,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a displ
 
 from cra_warp.atomic_json import write_json  # noqa: E402
 from cra_warp.deploy import DeployError, DeployPolicy, load_export, pd_torque  # noqa: E402
-from train.train import UsageError  # noqa: E402
+from train.cli import UsageError, parse_args  # noqa: E402
 
 TERRAINS = ("flat", "stairs", "slope")
 # Held joints (not driven by the policy; welded in training) get this PD on the robot: soft, they carry only a hand.
@@ -351,10 +351,8 @@ def validate(a: Sim2SimArgs) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
-    a = tyro.cli(Sim2SimArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
+        a = parse_args(Sim2SimArgs, argv, __doc__)
         validate(a)
         result = run(a)
     except (UsageError, DeployError) as e:

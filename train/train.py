@@ -23,25 +23,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cra_warp.atomic_json import write_json
-
-TASKS = ("flat", "rough")
-SIMS = ("newton", "mujoco")
-VARIANTS = {  # variant -> (env variant, contrast variant)
-    "ours": ("adaptive", "same_step"),
-    "sequential": ("adaptive", "sequential"),
-    "no_contrast": ("adaptive", "none"),
-    "fixed_cycle": ("fixed_cycle", "same_step"),
-    "clock_free": ("clock_free", "same_step"),
-}
+from train.cli import (TASKS, VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args,
+                       world_config)
 
 
 @dataclass
 class TrainArgs:
-    task: str = "flat"                 # flat | rough (terrain curriculum)
-    variant: str = "ours"              # ours | sequential | no_contrast | fixed_cycle | clock_free
+    task: Task = "flat"                # rough: the terrain curriculum
+    variant: Variant = "ours"
     num_envs: int = 128                # parallel robots (per process with torchrun)
     device: str = "cpu"                # cpu | cuda:N
-    sim: str = "newton"                # newton (CPU or CUDA) | mujoco (MuJoCo C, CPU: the fast CPU path)
+    sim: Sim = "newton"                # newton (CPU or CUDA) | mujoco (MuJoCo C, CPU: the fast CPU path)
     max_iterations: int = 120          # learning iterations (24 env steps per env each): ~10 min on 2 CPU cores
     seed: int = 1
     # checkpoint to continue from (iteration count and optimizer state); a directory: its newest model_<it>.pt
@@ -59,10 +51,6 @@ class TrainArgs:
     contrast_tau: float = 0.1          # InfoNCE temperature
     export: bool = True                # write TorchScript + ONNX + deploy JSON at the end
     quiet: bool = False                # no progress lines
-
-
-class UsageError(Exception):
-    """A bad argument or input file: reported as one line, exit code 2."""
 
 
 def validate(a: TrainArgs) -> None:
@@ -108,29 +96,6 @@ def parse_overrides(items: tuple[str, ...]) -> dict[str, object]:
         except json.JSONDecodeError:
             out[path] = text
     return out
-
-
-def check_sim(sim: str | None, device: str) -> None:
-    if sim is not None and sim not in SIMS:
-        raise UsageError(f"--sim must be one of {', '.join(SIMS)}, got {sim!r}")
-    if sim == "mujoco" and device != "cpu":
-        raise UsageError(f"--sim mujoco runs on the CPU only (use --device cpu or --sim newton), got --device {device}")
-
-
-def world_config(sim: str, **kw):
-    """The WorldConfig of a --sim choice."""
-    from cra_warp.sim import WorldConfig
-
-    return WorldConfig(backend=sim, **kw)
-
-
-def check_device(device: str) -> None:
-    import warp as wp
-
-    if device != "cpu" and not (device.startswith("cuda:") and device[5:].isdigit()):
-        raise UsageError(f"--device must be cpu or cuda:N, got {device!r}")
-    if device != "cpu" and device not in [str(d) for d in wp.get_cuda_devices()]:
-        raise UsageError(f"--device {device}: no such CUDA device on this machine")
 
 
 def run_config(a: TrainArgs, env, env_cfg, learner) -> dict:
@@ -245,12 +210,10 @@ def run(a: TrainArgs):
 
 
 def main(argv: list[str] | None = None) -> int:
-    import tyro
-
     from cra_warp.learning.checkpoint import CheckpointError
 
-    args = tyro.cli(TrainArgs, args=argv, description=__doc__.split("\n\n")[0])
     try:
+        args = parse_args(TrainArgs, argv, __doc__)
         validate(args)
         run_dir, _ = run(args)
     except (UsageError, CheckpointError) as e:

@@ -151,20 +151,11 @@ def bf16_supported(device: str) -> bool:
     return bool(torch.cpu._is_avx512_bf16_supported() or torch.cpu._is_amx_tile_supported())
 
 
-def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) -> dict:
-    """rsl-rl 5.5.1 OnPolicyRunner train_cfg for ``cfg``.
-
-    ``class_objects=False`` writes the classes as "module:Class" strings (a serialisable dict); True puts the class
-    objects themselves (rsl-rl's resolve_callable takes both).
-    """
+def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
+    """rsl-rl 5.5.1 OnPolicyRunner train_cfg for ``cfg``, serialisable: classes as "module:Class" strings, which
+    rsl-rl resolves (so this module imports neither the models nor the algorithm)."""
     cfg = cfg or LearnerConfig()
     a, c, p = cfg.actor, cfg.critic, cfg.ppo
-    if class_objects:
-        from cra_warp.learning.models import CRAActor, CRACritic
-        from cra_warp.learning.ppo import CRAPPO
-        actor_cls, critic_cls, alg_cls = CRAActor, CRACritic, CRAPPO
-    else:
-        actor_cls, critic_cls, alg_cls = ACTOR_CLASS, CRITIC_CLASS, ALGORITHM_CLASS
     return {
         "num_steps_per_env": cfg.num_steps_per_env,
         "save_interval": cfg.save_interval,
@@ -175,20 +166,20 @@ def runner_cfg(cfg: LearnerConfig | None = None, class_objects: bool = False) ->
         "check_for_nan": cfg.check_for_nan,
         "torch_compile_mode": cfg.torch_compile_mode,
         "actor": {
-            "class_name": actor_cls,
+            "class_name": ACTOR_CLASS,
             "hidden_dims": list(a.hidden_dims), "activation": a.activation, "obs_normalization": a.obs_normalization,
             "rnn_type": a.rnn_type, "rnn_hidden_dim": a.rnn_hidden_dim, "rnn_num_layers": a.rnn_num_layers,
             "distribution_cfg": {"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": a.init_std,
                                  "std_type": a.std_type},
         },
         "critic": {
-            "class_name": critic_cls,
+            "class_name": CRITIC_CLASS,
             "hidden_dims": list(c.hidden_dims), "activation": c.activation, "obs_normalization": c.obs_normalization,
             "rnn_type": c.rnn_type, "rnn_hidden_dim": c.rnn_hidden_dim, "rnn_num_layers": c.rnn_num_layers,
             "cnn_cfg": {"output_channels": list(c.cnn_channels), "kernel_size": c.cnn_kernel_size,
                         "stride": list(c.cnn_stride), "activation": c.activation},
             "cnn_latent_dim": c.cnn_latent_dim,
         },
-        "algorithm": {"class_name": alg_cls, **asdict(p), "optimizer": "adam", "rnd_cfg": None, "symmetry_cfg": None,
+        "algorithm": {"class_name": ALGORITHM_CLASS, **asdict(p), "optimizer": "adam", "rnd_cfg": None, "symmetry_cfg": None,
                       "contrast_cfg": asdict(cfg.contrast)},
     }
