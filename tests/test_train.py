@@ -149,6 +149,28 @@ def test_learner_bench_reads_the_progress_line(capsys):
     assert m and m.groups() == ("5", "948", "12.8", "13.2")
 
 
+def test_play_draws_robot_0_into_a_gif(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    gif = tmp_path / "stand.gif"
+    assert play_cli.main(["--agent", "stand", "--num-envs", "2", "--steps", "20", "--sim", "mujoco",
+                          "--video", str(gif)]) == 0
+    im = Image.open(gif)
+    assert im.n_frames == 10 and im.size == (320, 240)  # every other 50 Hz step: 25 frames/s
+    im.seek(im.n_frames - 1)
+    rgb = np.asarray(im.convert("RGB")).astype(int)
+    bone = (rgb.min(-1) > 110) & (rgb.max(-1) - rgb.min(-1) < 30)  # the skeleton's light grey capsules
+    bone[:40] = False                                                # not the caption
+    cols = bone.any(0).nonzero()[0]
+    assert bone.sum() > 300, "no robot drawn"
+    assert 100 < cols.mean() < 220, "the tracking camera keeps the robot near the image centre"
+
+
+def test_play_rejects_a_video_it_cannot_write(capsys, tmp_path):
+    one_line_error(capsys, play_cli.main(["--agent", "zero", "--video", str(tmp_path / "a.mp4")]), ".gif")
+
+
 def test_play_rejects_missing_checkpoint(capsys):
     one_line_error(capsys, play_cli.main(["--agent", "policy"]), "checkpoint")
 

@@ -3,6 +3,7 @@
     cra-play runs/<run>/model_40.pt                 # the trained policy, deterministic actions
     cra-play --agent stand --num-envs 16            # no policy: the scripted stand at the reference pose
     cra-play runs/<run>/model_40.pt --usd rollout.usda   # also write an animated USD (any USD viewer plays it)
+    cra-play runs/<run>/model_40.pt --video walk.gif     # and/or a GIF of robot 0 (MuJoCo's offscreen renderer)
 
 Reports the velocity tracking error, falls per robot-minute and the distance walked.
 """
@@ -16,7 +17,9 @@ from typing import Literal
 
 from tyro.conf import Positional
 
-from train.cli import Sim, Task, UsageError, Variant, check_device, check_sim, parse_args, world_config
+from cra_warp.video import check_gif_path
+
+from train.cli import VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args, world_config
 
 
 @dataclass
@@ -30,6 +33,7 @@ class PlayArgs:
     device: str = "cpu"
     sim: Sim | None = None             # default: the checkpoint's (newton for stand/zero/random)
     usd: Path | None = None            # write the rollout as an animated USD stage here
+    video: Path | None = None          # write robot 0's rollout as a GIF here (25 frames/s, a tracking camera)
     seed: int = 0
 
 
@@ -77,6 +81,11 @@ def run(a: PlayArgs) -> dict:
     viewer = None
     if a.usd is not None:
         viewer = env.world.usd_recorder(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
+    gif, falls_0, every = None, 0, max(1, round(1 / (25 * env.dt)))
+    if a.video is not None:
+        from cra_warp.video import RolloutVideo
+
+        gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (every * env.dt))
     obs = env.get_observations()
     falls, sq_err, dist = 0, torch.zeros(env.num_envs, device=env.device), torch.zeros(env.num_envs, device=env.device)
     with torch.inference_mode():
@@ -89,11 +98,19 @@ def run(a: PlayArgs) -> dict:
             sq_err += ((cmd[:, :2] - env.base_lin_vel[:, :2]) ** 2).sum(-1)
             moved = (env.root_pos[:, :2] - prev_xy).norm(dim=-1)
             dist += torch.where(dones.bool(), 0.0, moved)  # a reset teleports the robot: not walked
-            falls += int((dones.bool() & ~extras["time_outs"]).sum())
+            fell = dones.bool() & ~extras["time_outs"]
+            falls += int(fell.sum())
+            falls_0 += int(fell[0])
             if viewer is not None:
                 viewer.frame(k * env.dt)
+            if gif is not None and k % every == 0:
+                vx, vy, wz = env.commands[0].tolist()
+                gif.frame([(f"cmd {vx:+.2f} {vy:+.2f} m/s {wz:+.2f} rad/s   t {(k + 1) * env.dt:5.2f} s",
+                            (255, 255, 255)), (f"falls {falls_0}", (255, 60, 60) if falls_0 else (255, 255, 255))])
     if viewer is not None:
         viewer.close()
+    if gif is not None:
+        gif.close()
     minutes = a.steps * env.dt / 60 * env.num_envs
     return {"agent": a.agent, "num_envs": env.num_envs, "seconds": a.steps * env.dt,
             "vel_tracking_rmse": float((sq_err / a.steps).sqrt().mean()), "falls_per_robot_minute": falls / minutes,
@@ -112,6 +129,8 @@ def main(argv: list[str] | None = None) -> int:
         check_sim(a.sim, a.device)
         if a.usd is not None and a.sim == "mujoco":
             raise UsageError("--usd records Newton's state: use --sim newton")
+        if a.video is not None and check_gif_path(a.video):
+            raise UsageError(check_gif_path(a.video))
         check_device(a.device)
         report = run(a)
     except (UsageError, CheckpointError) as e:
@@ -119,8 +138,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for k, v in report.items():
         print(f"{k:>24}: {v:.3f}" if isinstance(v, float) else f"{k:>24}: {v}")
-    if a.usd is not None:
-        print(f"{'usd':>24}: {a.usd}")
+    for name in ("usd", "video"):
+        if getattr(a, name) is not None:
+            print(f"{name:>24}: {getattr(a, name)}")
     return 0
 
 

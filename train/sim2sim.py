@@ -18,7 +18,6 @@ second). PASS needs --min-success of the trials to survive and, with --max-track
 from __future__ import annotations
 
 import math
-import os
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,11 +25,10 @@ from pathlib import Path
 import numpy as np
 from tyro.conf import Positional
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display (before mujoco is imported)
-
-from cra_warp.atomic_json import write_json  # noqa: E402
-from cra_warp.deploy import DeployError, DeployPolicy, load_export, pd_torque  # noqa: E402
-from train.cli import UsageError, parse_args  # noqa: E402
+from cra_warp import video  # first: it sets MUJOCO_GL before mujoco is imported
+from cra_warp.atomic_json import write_json
+from cra_warp.deploy import DeployError, DeployPolicy, load_export, pd_torque
+from train.cli import UsageError, parse_args
 
 TERRAINS = ("flat", "stairs", "slope")
 # Held joints (not driven by the policy; welded in training) get this PD on the robot: soft, they carry only a hand.
@@ -143,7 +141,7 @@ def build_model(a: Sim2SimArgs, spec_json: dict):
         spec.add_actuator(name=f"motor_{name}", target=target, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     Terrain(a).add_to(spec)
     if a.video is not None:
-        _add_skeleton(spec)
+        video.add_skeleton(spec)
     model = spec.compile()
     model.opt.timestep = a.physics_dt
     names = [model.joint(i).name for i in range(model.njnt)]
@@ -153,35 +151,6 @@ def build_model(a: Sim2SimArgs, spec_json: dict):
     hid = [_find(names, n, "joint", a.model) for n in held]
     return (model, model.jnt_qposadr[jid], model.jnt_dofadr[jid],
             (model.jnt_qposadr[hid], model.jnt_dofadr[hid], np.array(list(held.values()), dtype=float)))
-
-
-def _add_skeleton(spec) -> None:
-    """Something to see when the meshes are absent: a massless, non-colliding capsule from each body's parent to
-    it, visible collision geoms, and a light."""
-    import mujoco
-
-    for body in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_BODY):
-        parent = body.parent
-        if parent.name != spec.worldbody.name and np.linalg.norm(body.pos) > 1e-3:
-            parent.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE, fromto=[0, 0, 0, *body.pos], size=[0.025, 0, 0],
-                            contype=0, conaffinity=0, density=0, group=1, rgba=[0.75, 0.75, 0.8, 1])
-        for g in body.geoms:
-            if g.rgba[3] == 0:
-                g.rgba = [0.8, 0.4, 0.3, 1]
-    spec.worldbody.add_light(pos=[0, 0, 4], dir=[0, 0, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL)
-
-
-def _offscreen_renderer(model):
-    import mujoco
-    from mujoco.rendering.classic import gl_context
-
-    if os.environ.get("MUJOCO_GL") == "egl" and "egl" not in gl_context.GLContext.__module__:
-        # MuJoCo fixed its GL backend when first imported, before MUJOCO_GL was set here (the simulator or a test
-        # imported it first); without a display only EGL renders, so use the EGL context MUJOCO_GL asks for.
-        from mujoco.egl import GLContext
-
-        gl_context.GLContext = GLContext
-    return mujoco.Renderer(model, 240, 320)
 
 
 def _quat_to_mat(wxyz: np.ndarray) -> np.ndarray:
@@ -229,10 +198,7 @@ class Trial:
         errors, touchdowns, in_contact, fell_at = [], 0, np.ones(len(self.feet), bool), None
         renderer = camera = None
         if frames is not None:
-            renderer = _offscreen_renderer(m)
-            camera = mujoco.MjvCamera()
-            camera.type, camera.trackbodyid = mujoco.mjtCamera.mjCAMERA_TRACKING, self.base_body
-            camera.distance, camera.elevation, camera.azimuth = 3.0, -15.0, 120.0
+            renderer, camera = video.offscreen_renderer(m), video.tracking_camera(self.base_body)
         try:
             for k in range(steps):
                 rot = _quat_to_mat(d.qpos[3:7])
@@ -281,15 +247,10 @@ class Trial:
         return out
 
     def _frame(self, renderer, camera, speed: float, t: float, fell_at: float | None):
-        from PIL import Image, ImageDraw
-
-        renderer.update_scene(self.d, camera)
-        img = Image.fromarray(renderer.render())
-        draw = ImageDraw.Draw(img)
-        draw.text((6, 4), f"cmd {speed:.2f} m/s   t {t:5.2f} s", fill=(255, 255, 255))
+        lines = [(f"cmd {speed:.2f} m/s   t {t:5.2f} s", (255, 255, 255))]
         if fell_at is not None:
-            draw.text((6, 18), f"FELL at {fell_at:.2f} s", fill=(255, 60, 60))
-        return img
+            lines.append((f"FELL at {fell_at:.2f} s", (255, 60, 60)))
+        return video.frame(renderer, self.d, camera, lines)
 
 
 def run(a: Sim2SimArgs) -> dict:
@@ -303,7 +264,7 @@ def run(a: Sim2SimArgs) -> dict:
         for r in range(a.trials):
             records.append(trial.run(speed, a.seconds, a.seed + r, frames if not records else None))
     if frames:
-        frames[0].save(a.video, save_all=True, append_images=frames[1:], duration=40, loop=0)
+        video.save_gif(frames, a.video, fps=25)
     success = float(np.mean([not r["fell"] for r in records]))
     errs = [r["tracking_error"] for r in records if r["tracking_error"] is not None]
     err = float(np.mean(errs)) if errs else None
@@ -346,8 +307,8 @@ def validate(a: Sim2SimArgs) -> None:
     for path, flag in ((a.json, "--json"), (a.video, "--video")):
         if path is not None and not path.parent.is_dir():
             raise UsageError(f"{flag} {path}: no such directory {path.parent}")
-    if a.video is not None and a.video.suffix.lower() != ".gif":
-        raise UsageError(f"--video {a.video}: only .gif is written (no video encoder is installed)")
+    if a.video is not None and video.check_gif_path(a.video):
+        raise UsageError(video.check_gif_path(a.video))
 
 
 def main(argv: list[str] | None = None) -> int:
