@@ -119,14 +119,14 @@ def test_nan_in_one_world_resets_that_world_only(env):
 
 
 def test_scripted_stand_keeps_robots_up_where_zero_actions_fall():
-    # Nominal physics. The robot's soft ankle PD (kp 25) cannot hold the reference pose: a zero action falls within
-    # ~1.5 s; the scripted stand (cra_warp.stand) holds it through the same PD law.
+    # Nominal physics. The robot's ankle PD (pitch kp 130) cannot hold the reference pose: a zero action falls
+    # after ~3.4 s; the scripted stand (cra_warp.stand) holds it through the same PD law.
     env = LocoEnv(LocoConfig(num_envs=4, device=DEVICE, randomization=DomainRandConfig(enabled=False)))
 
     def falls(agent):
         env.reset_idx(torch.arange(env.num_envs, device=env.device))
         fell = torch.zeros(env.num_envs, dtype=torch.bool, device=env.device)
-        for _ in range(200):
+        for _ in range(400):
             _, _, dones, extras = env.step(agent())
             fell |= dones.bool() & ~extras["time_outs"]
         return fell

@@ -109,5 +109,5 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     from envs.locomotion import LocoEnv
 
     env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
-    zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 3.0)
-    assert zero["fall_rate"] == 1.0   # the soft ankles: a zero action falls in ~1.3 s
+    zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 10.0)
+    assert zero["fall_rate"] == 1.0   # a zero action is no stand: it falls after ~3.4 s (nominal robot)

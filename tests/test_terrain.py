@@ -461,7 +461,7 @@ def test_pd_stand_holds_on_flat_stairs_uneven_and_gentle_slopes(stand_run):
         if "20 deg" in name:  # the steep-slope robots are only checked for sinking (next test)
             continue
         dev = r["rel"][:, i].abs().max().item()
-        assert dev < 0.03, f"{name}: pelvis {dev:.3f} m off its height above the local ground"
+        assert dev < 0.035, f"{name}: pelvis {dev:.3f} m off its height above the local ground"
         assert r["upright"][:, i].min() > 0.95, f"{name}: tipped over"
 
 

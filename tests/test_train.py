@@ -81,7 +81,7 @@ def test_export_at_the_end_of_training(trained):
     meta = json.loads((first / "exported" / "policy.json").read_text())
     assert (first / "exported" / "policy.pt").is_file() and (first / "exported" / "policy.onnx").is_file()
     assert len(meta["joint_names"]) == 23 and meta["control_dt"] == pytest.approx(0.02)
-    assert meta["gait"]["psi"] == 0.5 and len(meta["action_scale"]) == 23 and meta["action_scale"][5] == 0.5  # ankle roll (kp 0)
+    assert meta["gait"]["psi"] == 0.5 and len(meta["action_scale"]) == 23 and meta["action_scale"][5] == pytest.approx(0.5 * 12 / 70)  # ankle roll: 0.5 effort / kp
 
 
 def test_deploy_json_is_complete_for_a_program_that_reads_nothing_else(trained):
@@ -234,9 +234,9 @@ def test_the_same_seed_gives_identical_first_iterations(tmp_path):
         _, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=3, seed=7, export=False, quiet=True,
                                                       log_dir=tmp_path / str(k), sim="mujoco"))
         histories.append(runner.history)
-    keys = ("reward", "episode_s", "infonce_acc")
+    keys = ("reward", "episode_s", "infonce_acc", "losses")
     assert [{k: h.get(k) for k in keys} for h in histories[0]] == [{k: h.get(k) for k in keys} for h in histories[1]]
-    assert len(histories[0]) == 3 and "reward" in histories[0][-1]
+    assert len(histories[0]) == 3 and {"value", "surrogate"} <= set(histories[0][-1]["losses"])
 
 
 def test_overrides_reach_the_env_and_the_stored_config(tmp_path):
@@ -305,3 +305,12 @@ def test_resume_keeps_the_difficulty_level(tmp_path):
     from train.runner import runner_for_checkpoint  # play / eval / export: the whole task, no curriculum
     _, env = runner_for_checkpoint(second / "model_1.pt", num_envs=2, sim="mujoco")
     assert float(env.difficulty.level) == 1.0 and not env.difficulty.active
+
+
+def test_training_uses_the_curriculum_unless_told_not_to(trained, tmp_path):
+    first, _ = trained
+    stored = json.loads((first / "config.json").read_text())["env"]["difficulty"]
+    assert stored["commands"] and stored["randomization"] and stored["start"] == 0.0
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
+                                                        log_dir=tmp_path, sim="mujoco", curriculum=False))
+    assert not runner.env.difficulty.active and float(runner.env.difficulty.level) == 1.0

@@ -47,10 +47,10 @@ def test_config_errors_name_the_field():
 
 
 def test_zero_targets_fall_and_the_scripted_stand_holds_5s_with_feet_carrying_the_weight(world):
-    """The robot's soft ankles (explicit PD, kp 25) cannot hold the reference pose passively; the scripted stand
-    holds it through the same PD, and then the feet carry the weight."""
+    """The robot's ankles (explicit PD, pitch kp 130) cannot hold the reference pose passively (it falls after
+    ~3.4 s); the scripted stand holds it through the same PD, and then the feet carry the weight."""
     world.reset()
-    for _ in range(int(3.0 / world.cfg.env_dt)):
+    for _ in range(int(6.0 / world.cfg.env_dt)):
         world.step()
     assert (world.root_pos[:, 2] < 0.5).all(), "a zero-action robot should fall (else the stand tests nothing)"
     world.reset()
@@ -171,7 +171,7 @@ def test_randomised_parameters_reach_the_solver(world):
     assert support[1] / support[0] == pytest.approx(1.1, abs=0.03)
     knee = ADAM_LITE.joint_names.index("kneePitch_Left")
     assert world.joint_kp[2, knee] == pytest.approx(0.8 * ADAM_LITE.kp[knee])
-    assert world.root_pos[2, 2] < world.root_pos[0, 2] - 0.002  # weaker motors sag further under the same load
+    assert world.root_pos[2, 2] < world.root_pos[0, 2] - 0.001  # weaker motors sag further under the same load
     world.set_mass_scale(ids, torch.ones(1, world.num_bodies, device=d))
     world.set_actuators(torch.tensor([2], device=d), torch.ones(1, ADAM_LITE.num_joints, device=d))
     world.commit_physics()

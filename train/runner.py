@@ -48,6 +48,7 @@ class CraRunner(OnPolicyRunner):
         if len(lg.rewbuffer):
             rec.update(reward=statistics.mean(lg.rewbuffer), episode_s=statistics.mean(lg.lenbuffer) * self.env.dt)
         rec.update({k: loss_dict[k] for k in ("infonce_acc", "infonce_chance") if k in loss_dict})
+        rec["losses"] = {k: float(v) for k, v in loss_dict.items()}
         self.history.append(rec)
 
     def _progress(self, r: dict, start_it: int, total_it: int):
@@ -122,7 +123,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
         if whole_course:
             world = dataclasses.replace(world, terrain_window=None)
         # evaluation runs the whole task: a training curriculum's level (a rebuilt env would restart it) is off
-        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device, difficulty=DifficultyConfig(),
+        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device, difficulty=DifficultyConfig(commands=False, randomization=False),
                                       world=dataclasses.replace(world, device=device), **env_overrides)
     except (KeyError, TypeError, ValueError) as e:
         if isinstance(e, CheckpointError):

@@ -5,11 +5,15 @@ waist (roll, pitch, yaw), left arm, right arm. Limits come from our description 
 
 PD gains: the vendor's 23-joint real-robot set (pnd_rl_gym lite_run), run as the robot runs them: an explicit PD
 tau = clamp(kp (q* - q) - kd qd, +-effort) evaluated at every physics step (cra_warp.sim: MuJoCo's Euler
-integrator, no implicit damping). Ankle roll has kp 0 on the robot (the parallel ankle is not driven in roll): the
-foot rolls freely with a little damping. With ankle pitch at kp 25 a zero action is no longer a stand (the CoM is
-~3.6 cm ahead of the ankle: FACTS.md); balancing is the policy's job. Tests and the evaluation floor use a scripted
-stand instead (cra_warp.stand), which emulates the stiffer gains below through its PD targets at the policy rate:
-hip pitch, knee and ankle pitch 610/6, 610/6, 500/10, the gains that held a passive 5 s stand under implicit PD.
+integrator, no implicit damping), but for the ankles. The vendor's Lite set has ankle pitch 25/2.5 and ankle roll
+0/0.35 (roll not driven: the foot rolls freely). We drive both ankle axes with the gains of the vendor's Adam SP
+config (pitch 130/3.5, roll 70/2), whose legs have the Lite's kinematics and inertia: in a 2-seed A/B of 100 flat
+iterations (N=256) the episodes lasted 93 vs 80 steps (tools/results/ab_ankle.json). The Lite's ankle torque limits
+(40 and 12 N m) stay; the deploy JSON carries the gains, which the robot's drives must be set to. A zero action
+is still no stand (the CoM is ~3.6 cm ahead of the ankle: FACTS.md); balancing is the policy's job. Tests and the
+evaluation floor use a scripted stand instead (cra_warp.stand), which emulates the stiffer gains below through its
+PD targets at the policy rate: hip pitch, knee and ankle pitch 610/6, 610/6, 500/10, the gains that held a passive
+5 s stand under implicit PD.
 
 wristYaw joints are in the description (25 revolute joints) but not driven by the policy: the vendor's deploy stack
 holds them at 0, so the simulator and the kinematics weld them at 0 (fixed joints). That keeps the 23 driven joints
@@ -33,10 +37,10 @@ JOINT_NAMES = (
 #            hipP   hipR  hipY  knee  ankP   ankR
 _LEG_Q_L = (-0.32, 0.0, -0.18, 0.66, -0.39, 0.0)
 _LEG_Q_R = (-0.32, 0.0, 0.18, 0.66, -0.39, 0.0)
-_LEG_KP = (305.0, 700.0, 405.0, 305.0, 25.0, 0.0)
-_LEG_KD = (6.1, 30.0, 6.1, 6.1, 2.5, 0.35)
-_LEG_STAND_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 0.0)
-_LEG_STAND_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 0.35)
+_LEG_KP = (305.0, 700.0, 405.0, 305.0, 130.0, 70.0)
+_LEG_KD = (6.1, 30.0, 6.1, 6.1, 3.5, 2.0)
+_LEG_STAND_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 70.0)
+_LEG_STAND_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 2.0)
 #            shP   shR   shY   elbow
 _ARM_Q_L = (0.0, 0.1, 0.0, -0.3)
 _ARM_Q_R = (0.0, -0.1, 0.0, -0.3)
@@ -72,7 +76,7 @@ ADAM_LITE = RobotConfig(
     torso_link="torso",
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
     # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
-    # ankle pitch kd dt / I = 2.5 x 0.005 / (0.0043 + 0.01) = 0.9 with it, 2.9 without (explicit damping diverges
+    # ankle pitch kd dt / I = 3.5 x 0.005 / (0.0043 + 0.01) = 1.2 with it, 4.1 without (explicit damping diverges
     # above 2). The deploy JSON carries it.
     armature=0.01,
 )
