@@ -41,7 +41,7 @@ class TrainArgs:
     resume: Path | None = None
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
-    epochs: int = 3                    # PPO epochs per iteration (3: tools/results/ab_epochs.json)
+    epochs: int = 2                    # PPO epochs per iteration (tools/results/ab_epochs*.json)
     mini_batches: int = 4              # PPO mini-batches per epoch; must divide num_envs (recurrent: whole rollouts)
     bf16: bool = True                  # bf16 autocast in the PPO update where the device has native bf16; --no-bf16
     # env settings by dotted path, VALUE as JSON: --override rewards.weights.contact_momentum=-4.4e-5 obs.noise=false;
