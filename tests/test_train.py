@@ -205,7 +205,7 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     stored = json.loads((first / "config.json").read_text())
     ckpt = torch.load(first / "model_1.pt", weights_only=False)
     assert ckpt["infos"]["config"] == stored
-    assert stored["env"]["world"]["backend"] == "newton" and stored["learner"]["ppo"]["num_learning_epochs"] == 3
+    assert stored["env"]["world"]["backend"] == "newton" and stored["learner"]["ppo"]["num_learning_epochs"] == train_cli.TrainArgs().epochs == 2
     # a stored setting that differs from today's defaults is what the rebuilt env gets
     ckpt["infos"]["config"]["env"]["obs"]["yaw_rate_filter_tau"] = 0.35
     ckpt["infos"]["config"]["learner"]["ppo"]["gamma"] = 0.98
