@@ -81,7 +81,8 @@ def test_export_at_the_end_of_training(trained):
     meta = json.loads((first / "exported" / "policy.json").read_text())
     assert (first / "exported" / "policy.pt").is_file() and (first / "exported" / "policy.onnx").is_file()
     assert len(meta["joint_names"]) == 23 and meta["control_dt"] == pytest.approx(0.02)
-    assert meta["gait"]["psi"] == 0.5 and len(meta["action_scale"]) == 23 and meta["action_scale"][5] == pytest.approx(0.5 * 12 / 70)  # ankle roll: 0.5 effort / kp
+    assert meta["gait"]["psi"] == 0.5 and len(meta["action_scale"]) == 23
+    assert meta["action_scale"][5] == pytest.approx(0.5 * 12 / 70)  # ankle roll: 0.5 effort / kp
 
 
 def test_deploy_json_is_complete_for_a_program_that_reads_nothing_else(trained):
@@ -205,7 +206,8 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     stored = json.loads((first / "config.json").read_text())
     ckpt = torch.load(first / "model_1.pt", weights_only=False)
     assert ckpt["infos"]["config"] == stored
-    assert stored["env"]["world"]["backend"] == "newton" and stored["learner"]["ppo"]["num_learning_epochs"] == train_cli.TrainArgs().epochs == 2
+    assert stored["env"]["world"]["backend"] == "newton"
+    assert stored["learner"]["ppo"]["num_learning_epochs"] == train_cli.TrainArgs().epochs == 2
     # a stored setting that differs from today's defaults is what the rebuilt env gets
     ckpt["infos"]["config"]["env"]["obs"]["yaw_rate_filter_tau"] = 0.35
     ckpt["infos"]["config"]["learner"]["ppo"]["gamma"] = 0.98

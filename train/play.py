@@ -17,8 +17,7 @@ from typing import Literal
 
 from tyro.conf import Positional
 
-from cra_warp.video import check_gif_path
-
+from cra_warp.video import RolloutVideo, check_gif_path
 from train.cli import VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args, world_config
 
 
@@ -83,8 +82,6 @@ def run(a: PlayArgs) -> dict:
         viewer = env.world.usd_recorder(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
     gif, falls_0, every = None, 0, max(1, round(1 / (25 * env.dt)))
     if a.video is not None:
-        from cra_warp.video import RolloutVideo
-
         gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (every * env.dt))
     obs = env.get_observations()
     falls, sq_err, dist = 0, torch.zeros(env.num_envs, device=env.device), torch.zeros(env.num_envs, device=env.device)

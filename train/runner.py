@@ -123,7 +123,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
         if whole_course:
             world = dataclasses.replace(world, terrain_window=None)
         # evaluation runs the whole task: a training curriculum's level (a rebuilt env would restart it) is off
-        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device, difficulty=DifficultyConfig(commands=False, randomization=False),
+        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device,
+                                      difficulty=DifficultyConfig(commands=False, randomization=False),
                                       world=dataclasses.replace(world, device=device), **env_overrides)
     except (KeyError, TypeError, ValueError) as e:
         if isinstance(e, CheckpointError):

@@ -182,6 +182,7 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                         "stride": list(c.cnn_stride), "activation": c.activation},
             "cnn_latent_dim": c.cnn_latent_dim,
         },
-        "algorithm": {"class_name": ALGORITHM_CLASS, **asdict(p), "optimizer": "adam", "rnd_cfg": None, "symmetry_cfg": None,
+        "algorithm": {"class_name": ALGORITHM_CLASS, **asdict(p), "optimizer": "adam", "rnd_cfg": None,
+                      "symmetry_cfg": None,
                       "contrast_cfg": asdict(cfg.contrast)},
     }
