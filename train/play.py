@@ -126,8 +126,8 @@ def main(argv: list[str] | None = None) -> int:
         check_sim(a.sim, a.device)
         if a.usd is not None and a.sim == "mujoco":
             raise UsageError("--usd records Newton's state: use --sim newton")
-        if a.video is not None and check_gif_path(a.video):
-            raise UsageError(check_gif_path(a.video))
+        if a.video is not None and (why := check_gif_path(a.video)):
+            raise UsageError(why)
         check_device(a.device)
         report = run(a)
     except (UsageError, CheckpointError) as e:

@@ -304,11 +304,10 @@ def validate(a: Sim2SimArgs) -> None:
             raise UsageError(f"--{name.replace('_', '-')} must be finite and > 0, got {v}")
     if not 0 <= a.slope_deg < 45:
         raise UsageError(f"--slope-deg must be in [0, 45), got {a.slope_deg}")
-    for path, flag in ((a.json, "--json"), (a.video, "--video")):
-        if path is not None and not path.parent.is_dir():
-            raise UsageError(f"{flag} {path}: no such directory {path.parent}")
-    if a.video is not None and video.check_gif_path(a.video):
-        raise UsageError(video.check_gif_path(a.video))
+    if a.json is not None and not a.json.parent.is_dir():
+        raise UsageError(f"--json {a.json}: no such directory {a.json.parent}")
+    if a.video is not None and (why := video.check_gif_path(a.video)):
+        raise UsageError(why)
 
 
 def main(argv: list[str] | None = None) -> int:
