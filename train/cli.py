@@ -10,14 +10,17 @@ from typing import Literal, TypeVar, get_args
 
 Task = Literal["flat", "rough"]
 Sim = Literal["newton", "mujoco"]
-Variant = Literal["ours", "sequential", "no_contrast", "fixed_cycle", "clock_free"]
+Variant = Literal["ours", "sequential", "no_contrast", "fixed_cycle", "clock_free", "dreamwaq", "dwl"]
 TASKS, SIMS = get_args(Task), get_args(Sim)
-VARIANTS = {  # the experiment registry (paper IV-A): variant -> (env variant, contrast variant)
-    "ours": ("adaptive", "same_step"),
-    "sequential": ("adaptive", "sequential"),
-    "no_contrast": ("adaptive", "none"),
-    "fixed_cycle": ("fixed_cycle", "same_step"),
-    "clock_free": ("clock_free", "same_step"),
+VARIANTS = {  # the experiment registry (paper IV-A): variant -> (env variant, contrast variant, actor kind)
+    "ours": ("adaptive", "same_step", "gru"),
+    "sequential": ("adaptive", "sequential", "gru"),
+    "no_contrast": ("adaptive", "none", "gru"),
+    "fixed_cycle": ("fixed_cycle", "same_step", "gru"),
+    "clock_free": ("clock_free", "same_step", "gru"),
+    # the baselines keep our clock, rewards and critic; their actors are cra_warp/learning/baselines.py's
+    "dreamwaq": ("adaptive", "none", "dreamwaq"),
+    "dwl": ("adaptive", "none", "dwl"),
 }
 assert tuple(VARIANTS) == get_args(Variant)
 

@@ -112,10 +112,11 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
             variant = info.get("variant", "ours")
             if variant not in VARIANTS:
                 raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
-            env_variant, contrast = VARIANTS[variant]
+            env_variant, contrast, kind = VARIANTS[variant]
             env_cfg = LocoConfig(variant=env_variant, terrain=info.get("task", "flat"))
             learner = LearnerConfig()
             learner.contrast = dataclasses.replace(learner.contrast, variant=contrast)
+            learner.actor = dataclasses.replace(learner.actor, kind=kind)
             sim = sim or info.get("sim", "newton")
         world = dataclasses.replace(env_cfg.world, threads=0)  # rollout threads: this machine's, not the run's
         if sim is not None:

@@ -167,7 +167,7 @@ def run(a: TrainArgs):
     # the learner's torch threads and the MuJoCo backend's rollout threads
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, cores // int(os.getenv("WORLD_SIZE", "1")))
-    env_variant, contrast = VARIANTS[a.variant]
+    env_variant, contrast, actor_kind = VARIANTS[a.variant]
     env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
                          seed=a.seed + rank, world=world_config(a.sim, threads=threads),
                          difficulty=DifficultyConfig(commands=a.curriculum, randomization=a.curriculum))
@@ -185,6 +185,9 @@ def run(a: TrainArgs):
                                            tau=a.contrast_tau)
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
                                       use_mixed_precision=a.bf16 and bf16_supported(a.device))
+    learner.actor = dataclasses.replace(learner.actor, kind=actor_kind)
+    learner.privileged_slices = {k: (env.priv_layout[name].start, env.priv_layout[name].stop)
+                                 for k, name in (("velocity", "base_lin_vel"), ("observation", "actor"))}
     if learner_over:
         try:
             learner = with_overrides(learner, learner_over)

@@ -13,9 +13,12 @@ from typing import Literal
 
 ContrastVariant = Literal["same_step", "sequential", "none"]
 CONTRAST_VARIANTS: tuple[str, ...] = ("same_step", "sequential", "none")
+ActorKind = Literal["gru", "dreamwaq", "dwl"]
 
 # Where rsl-rl's resolve_callable finds our classes ("module:Class" keeps the cfg dict serialisable).
-ACTOR_CLASS = "cra_warp.learning.models:CRAActor"
+ACTOR_CLASSES = {"gru": "cra_warp.learning.models:CRAActor",
+                 "dreamwaq": "cra_warp.learning.baselines:DreamWaQActor",
+                 "dwl": "cra_warp.learning.baselines:DWLActor"}
 CRITIC_CLASS = "cra_warp.learning.models:CRACritic"
 ALGORITHM_CLASS = "cra_warp.learning.ppo:CRAPPO"
 
@@ -36,6 +39,43 @@ class ActorConfig:
     obs_normalization: bool = True               # running mean/std; copied into the exported graph
     init_std: float = 0.3                        # Gaussian std at start, in action units (see below)
     std_type: str = "scalar"                     # "scalar" or "log" parameterisation of the state-free std
+    # the actor's representation: "gru" (RNN_a, every CRA-Loco variant) or a baseline's estimator (issue 13):
+    # "dreamwaq" (LearnerConfig.dreamwaq) or "dwl" (LearnerConfig.dwl). The critic is ours for all of them.
+    kind: ActorKind = "gru"
+
+
+@dataclass
+class DreamWaQConfig:
+    """DreamWaQ's context-aided estimator (Nahrendra et al. 2023, sec. III; baselines.DreamWaQActor). Sizes as
+    the paper's Fig. 2 is read by public re-implementations (its text gives none); every other choice is ours."""
+
+    history: int = 5                             # H observations in the estimator's window (paper: H = 5)
+    latent_dim: int = 16                         # z
+    encoder_dims: tuple[int, ...] = (128, 64)    # window -> 128 -> 64 -> [v_hat 3, mu 16, log var 16]
+    decoder_dims: tuple[int, ...] = (64, 128)    # [v_hat, z] -> 64 -> 128 -> o_{t+1}
+    hidden_dims: tuple[int, ...] = (512, 256, 128)  # the policy MLP on [o_t, v_hat, mu]
+    # beta of the beta-VAE (paper: not given), with the KL and both MSEs averaged over their dimensions; a public
+    # re-implementation found z collapsed with beta 1 on a summed KL and alive with 0.35 on averaged terms.
+    beta: float = 0.35
+    # The estimator's loss enters PPO's loss with this weight (the paper trains CENet beside the policy, lr 1e-3,
+    # and does not say how: one optimizer, the KL-adapted lr, is our choice). Its outputs enter the policy detached.
+    # Not built: AdaBoot (feeding ground truth instead of the estimates with probability 1 - tanh(CV(returns))):
+    # replaying that choice in the update needs a per-env flag rsl-rl's storage has no slot for.
+    weight: float = 1.0
+
+
+@dataclass
+class DWLConfig:
+    """DWL's denoising world model (Gu et al. 2024, Table VI; baselines.DWLActor): GRU 256 -> 256 -> z (24) ->
+    policy 48 -> A; decoder z -> 64 -> s_t. Loss ||s_hat - s||^2 (mean) + 0.002 ||z||_1, joint with PPO."""
+
+    encoder_dims: tuple[int, ...] = (256,)
+    latent_dim: int = 24
+    decoder_dims: tuple[int, ...] = (64,)
+    hidden_dims: tuple[int, ...] = (48,)
+    latent_l1: float = 0.002
+    # DWL weighs its PPO losses 5x the denoising loss (lambda_pi = lambda_v = 5): 1/5 relative to our PPO loss
+    weight: float = 0.2
 
 
 @dataclass
@@ -130,6 +170,11 @@ class LearnerConfig:
     critic: CriticConfig = field(default_factory=CriticConfig)
     contrast: ContrastConfig = field(default_factory=ContrastConfig)
     ppo: PPOConfig = field(default_factory=PPOConfig)
+    dreamwaq: DreamWaQConfig = field(default_factory=DreamWaQConfig)
+    dwl: DWLConfig = field(default_factory=DWLConfig)
+    # where the baselines' targets sit in the privileged group (cra-train fills them from the env's layout):
+    # "velocity" (base linear velocity) and "observation" (the noise-free actor observation), [start, stop)
+    privileged_slices: dict[str, tuple[int, int]] = field(default_factory=dict)
     num_steps_per_env: int = 24                  # rollout length per env and iteration (= recurrent BPTT window)
     save_interval: int = 100                     # iterations between checkpoints (only when a log_dir is given)
     # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
@@ -158,6 +203,27 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
     rsl-rl resolves (so this module imports neither the models nor the algorithm)."""
     cfg = cfg or LearnerConfig()
     a, c, p = cfg.actor, cfg.critic, cfg.ppo
+    if a.kind not in ACTOR_CLASSES:
+        raise ValueError(f"ActorConfig.kind must be one of {tuple(ACTOR_CLASSES)}, got {a.kind!r}")
+    actor = {"class_name": ACTOR_CLASSES[a.kind], "hidden_dims": list(a.hidden_dims), "activation": a.activation,
+             "obs_normalization": a.obs_normalization,
+             "distribution_cfg": {"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": a.init_std,
+                                  "std_type": a.std_type}}
+    representation_weight = 0.0
+    if a.kind == "gru":
+        actor.update(rnn_type=a.rnn_type, rnn_hidden_dim=a.rnn_hidden_dim, rnn_num_layers=a.rnn_num_layers)
+    elif a.kind == "dreamwaq":
+        d = cfg.dreamwaq
+        actor.update(hidden_dims=list(d.hidden_dims), history=d.history, latent_dim=d.latent_dim,
+                     encoder_dims=list(d.encoder_dims), decoder_dims=list(d.decoder_dims), beta=d.beta,
+                     targets={k: list(v) for k, v in cfg.privileged_slices.items()})
+        representation_weight = d.weight
+    else:
+        d = cfg.dwl
+        actor.update(hidden_dims=list(d.hidden_dims), rnn_type=a.rnn_type, rnn_hidden_dim=a.rnn_hidden_dim,
+                     rnn_num_layers=a.rnn_num_layers, encoder_dims=list(d.encoder_dims), latent_dim=d.latent_dim,
+                     decoder_dims=list(d.decoder_dims), latent_l1=d.latent_l1)
+        representation_weight = d.weight
     return {
         "num_steps_per_env": cfg.num_steps_per_env,
         "save_interval": cfg.save_interval,
@@ -167,13 +233,7 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
         "run_name": cfg.run_name,
         "check_for_nan": cfg.check_for_nan,
         "torch_compile_mode": cfg.torch_compile_mode,
-        "actor": {
-            "class_name": ACTOR_CLASS,
-            "hidden_dims": list(a.hidden_dims), "activation": a.activation, "obs_normalization": a.obs_normalization,
-            "rnn_type": a.rnn_type, "rnn_hidden_dim": a.rnn_hidden_dim, "rnn_num_layers": a.rnn_num_layers,
-            "distribution_cfg": {"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": a.init_std,
-                                 "std_type": a.std_type},
-        },
+        "actor": actor,
         "critic": {
             "class_name": CRITIC_CLASS,
             "hidden_dims": list(c.hidden_dims), "activation": c.activation, "obs_normalization": c.obs_normalization,
@@ -183,6 +243,6 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
             "cnn_latent_dim": c.cnn_latent_dim,
         },
         "algorithm": {"class_name": ALGORITHM_CLASS, **asdict(p), "optimizer": "adam", "rnd_cfg": None,
-                      "symmetry_cfg": None,
-                      "contrast_cfg": asdict(cfg.contrast)},
+                      "symmetry_cfg": None, "contrast_cfg": asdict(cfg.contrast),
+                      "representation_weight": representation_weight},
     }

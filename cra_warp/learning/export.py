@@ -6,9 +6,11 @@
                  feed h_out back as h_in, zeros at episode start.
     <name>.json  the observation layout, joint order, action scale, reference pose, PD gains, gait-clock constants,
                  control dt and observation scales (from the caller's metadata) plus the network's interface.
+A DreamWaQ policy has the same interface; its state is its window of past observations (network.history), not a
+GRU's: [1, 1, (history - 1) D].
 
-Both graphs are rsl-rl's own export wrappers (``as_jit`` / ``as_onnx``, the ones ``OnPolicyRunner.export_policy_to_*``
-use) and contain the observation normaliser, so the deploy program feeds the observation as the env builds it
+Both graphs are the models' own export wrappers (``as_jit`` / ``as_onnx``, the ones ``OnPolicyRunner.export_policy_to_*``
+use: rsl-rl's, or baselines.py's for DreamWaQ) and contain the observation normaliser, so the deploy program feeds the observation as the env builds it
 (scaled, clipped, not normalised) and applies the deterministic (mean) action.
 cra_warp does not import the task: the caller passes the task metadata (see :data:`REQUIRED_METADATA`).
 """
@@ -110,7 +112,10 @@ def export_policy(policy, out_dir: str | Path, metadata: Mapping, name: str = "p
     net = {"obs_dim": obs_dim, "action_dim": action_dim, "recurrent": recurrent,
            "obs_normalization": "inside the exported graphs (feed the un-normalised observation)",
            "output": "deterministic action (Gaussian mean); clip as the env does before use"}
-    if recurrent:
+    if recurrent and hasattr(actor, "memory"):  # DreamWaQ: the state is its window of past observations
+        net.update(history=actor.memory.length, hidden_state_shape=actor.state_shape,
+                   hidden_state="the previous history - 1 observations after the graph's normaliser, oldest first")
+    elif recurrent:
         rnn = actor.rnn.rnn
         net.update(rnn_type=type(rnn).__name__.lower(), rnn_hidden_dim=rnn.hidden_size,
                    rnn_num_layers=rnn.num_layers, hidden_state_shape=[rnn.num_layers, 1, rnn.hidden_size])

@@ -1,16 +1,18 @@
-"""PPO with the contrastive term: rsl-rl 5.5.1's PPO, plus weight * InfoNCE on the same mini-batches.
+"""PPO with auxiliary representation losses: rsl-rl 5.5.1's PPO, plus weight * InfoNCE (ours) or a baseline actor's
+own loss (DreamWaQ's estimator, DWL's world model: cra_warp/learning/baselines.py) on the same mini-batches.
 
-How the term gets into rsl-rl's loss (the smallest override that works in 5.5.1): ``PPO.update()`` is one method
+How a term gets into rsl-rl's loss (the smallest override that works in 5.5.1): ``PPO.update()`` is one method
 with no auxiliary-loss hook except the symmetry extension's slot, which runs inside the mini-batch loop right after
 the actor and critic forwards, under the same autocast, and adds ``mirror_loss_coeff * compute_loss(...)`` to the
 loss before the single ``backward()``. rsl-rl refuses a symmetry config for recurrent models, so that slot is free
-here: we put a small adapter there (:class:`_ContrastLossHook`) instead of copying the ~150-line update loop. The
+here: we put a small adapter there (:class:`_AuxLossHook`) instead of copying the ~150-line update loop. The
 PPO loss, clipping, KL-adaptive learning rate, gradient-norm clipping and optimizer step stay rsl-rl's own code.
 The adapter counts its calls and ``update()`` checks the count, so an rsl-rl release that changes the loop fails
-loudly instead of silently training without the contrast.
-Differences from plain PPO: the two encoder heads are an extra optimizer param group (same lr, adapted by the
-same KL schedule); their gradients are not norm-clipped (rsl-rl clips actor and critic only; Adam is insensitive
-to the gradient scale), and they are saved/loaded as ``contrast_state_dict`` in the checkpoint.
+loudly instead of silently training without the term.
+Differences from plain PPO: the two contrastive encoder heads are an extra optimizer param group (same lr, adapted
+by the same KL schedule); their gradients are not norm-clipped (rsl-rl clips actor and critic only; Adam is
+insensitive to the gradient scale), and they are saved/loaded as ``contrast_state_dict`` in the checkpoint. A
+baseline's estimator or decoder is part of its actor: optimised, clipped and saved with it.
 """
 
 from __future__ import annotations
@@ -27,56 +29,72 @@ from cra_warp.learning.contrastive import ContrastiveHeads, contrast_pairs, epis
 from cra_warp.learning.models import CRAActor, CRACritic
 
 
-class _ContrastLossHook:
-    """Stands in rsl-rl's ``PPO.symmetry`` slot: no augmentation, its "mirror loss" is our InfoNCE."""
+class _AuxLossHook:
+    """Stands in rsl-rl's ``PPO.symmetry`` slot: no augmentation, its "mirror loss" is the sum of our auxiliary
+    terms, each already weighted (``mirror_loss_coeff`` is 1)."""
 
     use_data_augmentation = False
     use_mirror_loss = True
+    mirror_loss_coeff = 1.0
 
-    def __init__(self, alg: CRAPPO) -> None:
-        self.alg = alg
-        self.mirror_loss_coeff = alg.contrast_cfg.weight
+    def __init__(self, terms) -> None:
+        self.terms = terms  # [(weight, fn(batch) -> (loss, {name: value}))]
         self.reset()
 
     def reset(self) -> None:
-        self.calls, self.loss, self.acc, self.chance = 0, 0.0, 0.0, 0.0
+        self.calls, self.sums = 0, {}
 
     def augment_batch(self, batch, original_batch_size: int) -> None:
         pass
 
     def compute_loss(self, actor, batch, original_batch_size: int) -> torch.Tensor:
-        loss, acc, k = self.alg.contrastive_loss(batch.masks)
+        total = 0.0
+        for weight, term in self.terms:
+            loss, logs = term(batch)
+            total = total + weight * loss
+            for k, v in logs.items():
+                self.sums[k] = self.sums.get(k, 0.0) + v
         self.calls += 1
-        self.loss += loss.item()
-        self.acc += acc.item()
-        self.chance += 1.0 / k
-        return loss
+        return total
+
+    def means(self) -> dict[str, float]:
+        return {k: v / max(self.calls, 1) for k, v in self.sums.items()}
 
 
 class CRAPPO(PPO):
-    """rsl-rl PPO + ``contrast_cfg.weight`` * InfoNCE(MLP_S(m_a), MLP_T([sg(u_t), s_t])).
+    """rsl-rl PPO + ``contrast_cfg.weight`` * InfoNCE(MLP_S(m_a), MLP_T([sg(u_t), s_t])) + ``representation_weight``
+    * the actor's ``representation_loss(batch)`` where the actor has one (the baselines).
 
-    ``update()`` returns rsl-rl's keys plus, unless the variant is "none": ``infonce`` (mean loss),
-    ``infonce_acc`` (top-1 accuracy of the positive) and ``infonce_chance`` (1 / samples per term) -> the runner
-    logs them as Loss/<key>.
+    ``update()`` returns rsl-rl's keys plus, unless the contrast variant is "none": ``infonce`` (mean loss),
+    ``infonce_acc`` (top-1 accuracy of the positive) and ``infonce_chance`` (1 / samples per term), and the
+    baseline's own terms -> the runner logs them as Loss/<key>.
     """
 
-    def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None, **kwargs) -> None:
+    def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
+                 representation_weight: float = 1.0, **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
         cfg = contrast_cfg if isinstance(contrast_cfg, ContrastConfig) else ContrastConfig(**(contrast_cfg or {}))
         self.contrast_cfg = cfg
         self.heads: ContrastiveHeads | None = None
-        if cfg.variant == "none":
-            return
-        if not isinstance(actor, CRAActor) or not isinstance(critic, CRACritic):
-            raise TypeError(f"the contrastive variant {cfg.variant!r} needs CRAActor and CRACritic models, "
-                            f"got {type(actor).__name__} and {type(critic).__name__}")
-        if self.symmetry is not None:
-            raise ValueError("the contrastive loss uses rsl-rl's symmetry slot; symmetry_cfg must be None")
-        self.heads = ContrastiveHeads(actor.latent_dim, critic.cnn_latent_dim, critic.obs_dim, cfg.embed_dim,
-                                      cfg.hidden_dims, cfg.activation).to(self.device)
-        self.optimizer.add_param_group({"params": list(self.heads.parameters()), "lr": self.learning_rate})
-        self.symmetry = _ContrastLossHook(self)
+        terms = []
+        if cfg.variant != "none":
+            if not isinstance(actor, CRAActor) or not isinstance(critic, CRACritic):
+                raise TypeError(f"the contrastive variant {cfg.variant!r} needs CRAActor and CRACritic models, "
+                                f"got {type(actor).__name__} and {type(critic).__name__}")
+            self.heads = ContrastiveHeads(actor.latent_dim, critic.cnn_latent_dim, critic.obs_dim, cfg.embed_dim,
+                                          cfg.hidden_dims, cfg.activation).to(self.device)
+            self.optimizer.add_param_group({"params": list(self.heads.parameters()), "lr": self.learning_rate})
+            terms.append((cfg.weight, self._contrast_term))
+        if hasattr(actor, "representation_loss"):
+            terms.append((representation_weight, lambda batch: self._raw_actor.representation_loss(batch)))
+        if terms:
+            if self.symmetry is not None:
+                raise ValueError("the auxiliary losses use rsl-rl's symmetry slot; symmetry_cfg must be None")
+            self.symmetry = _AuxLossHook(terms)
+
+    def _contrast_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
+        loss, acc, k = self.contrastive_loss(batch.masks)
+        return loss, {"infonce": loss.item(), "infonce_acc": acc.item(), "infonce_chance": 1.0 / k}
 
     def contrastive_loss(self, masks: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor, int]:
         """InfoNCE on the features of the last actor and critic forward; (loss, top-1 accuracy, samples K)."""
@@ -91,18 +109,18 @@ class CRAPPO(PPO):
         return loss, acc, m_a.shape[0]
 
     def update(self) -> dict[str, float]:
-        if self.heads is None:
+        hook = self.symmetry
+        if not isinstance(hook, _AuxLossHook):
             return super().update()
-        hook: _ContrastLossHook = self.symmetry  # type: ignore[assignment]
         hook.reset()
         loss_dict = super().update()
-        loss_dict.pop("symmetry", None)  # the slot's own log entry is our InfoNCE, logged below under its name
+        loss_dict.pop("symmetry", None)  # the slot's own log entry is the sum; its terms are logged by name
         n = self.num_learning_epochs * self.num_mini_batches
         if hook.calls != n:
-            raise RuntimeError(f"rsl-rl's PPO.update() called the contrastive loss {hook.calls} times for {n} "
+            raise RuntimeError(f"rsl-rl's PPO.update() called the auxiliary losses {hook.calls} times for {n} "
                                "mini-batches: CRAPPO relies on rsl-rl 5.5.1's update loop "
                                "(see cra_warp/learning/ppo.py)")
-        loss_dict.update(infonce=hook.loss / n, infonce_acc=hook.acc / n, infonce_chance=hook.chance / n)
+        loss_dict.update(hook.means())
         return loss_dict
 
     # ---------------------------------------------------------------- the heads follow the models everywhere
