@@ -111,3 +111,40 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
     zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 10.0)
     assert zero["fall_rate"] == 1.0   # a zero action is no stand: it falls after ~3.4 s (nominal robot)
+
+
+def test_paper_protocol_runs_the_sweep_and_the_ablation(monkeypatch):
+    """--protocol paper: 200 robots per level of every kind at each paper speed, then 25 per level of the stairs and
+    slope ascents at 0.15 m/s; every record says which part it belongs to."""
+    seen = []
+
+    def fake_run(a):
+        seen.append(a)
+        return [{"policy": "stand", "speed": v, "kind": k, "level": 0, "success_rate": 1.0}
+                for v in a.speeds for k in (a.kinds or ("all",))]
+
+    monkeypatch.setattr(eval_cli, "_run", fake_run)
+    records = eval_cli.run(eval_cli.EvalArgs(agent_stand=True, protocol="paper"))
+    sweep, ablation = seen
+    assert sweep.speeds == eval_cli.PAPER_SPEEDS and sweep.robots_per_level == 200 and sweep.kinds == ()
+    assert ablation.speeds == (0.15,) and ablation.robots_per_level == 25
+    assert ablation.kinds == ("stairs_ascend", "slope_ascend")
+    assert {r["protocol"] for r in records} == {"speed_sweep", "ablation"}
+    assert all(r["method"] == "stand" for r in records)
+
+
+def test_seed_means_and_csv(tmp_path):
+    """Two seeds of one method: each cell's mean and (population) std over them, in the CSV beside the records."""
+    import csv
+
+    recs = [{"policy": f"s{s}/model.pt", "method": "ours", "train_seed": s, "speed": 0.5, "kind": "uneven",
+             "level": lv, "difficulty": 0.1 * lv, "robots": 4, "success_rate": rate, "fall_rate": 1 - rate}
+            for s, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.25))) for lv, rate in enumerate(rates)]
+    means = eval_cli.seed_means(recs)
+    assert [(m["level"], m["seeds"]) for m in means] == [(0, 2), (1, 2)]
+    assert means[0]["success_mean"] == pytest.approx(0.75) and means[0]["success_std"] == pytest.approx(0.25)
+    assert means[1]["success_mean"] == pytest.approx(0.375) and means[1]["success_std"] == pytest.approx(0.125)
+    eval_cli.write_csv(tmp_path / "eval.csv", recs)
+    rows = list(csv.DictReader((tmp_path / "eval.csv").open()))
+    assert [r["table"] for r in rows] == ["record"] * 4 + ["seed_mean"] * 2
+    assert float(rows[4]["success_mean"]) == pytest.approx(0.75) and rows[0]["train_seed"] == "1"

@@ -15,6 +15,11 @@ the reference pose and walks nowhere (the robot's soft ankles make a zero action
 The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0,
 for --seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
 the first 2 s (the start from rest).
+
+The paper's protocol (IV-B), one option: --protocol paper runs (1) the speed sweep, 200 robots per level of every
+kind at each of --speeds (default 0.15 ... 1.0 m/s), and (2) the terrain ablation, 25 robots per level of the stairs
+and slope ascents at 0.15 m/s. Records name the method (the checkpoint's variant) and its training seed; with
+several seeds of a method, the table and --csv also give each cell's mean and std over the seeds.
 """
 
 from __future__ import annotations
@@ -48,6 +53,14 @@ class EvalArgs:
     trial: Literal["course", "flat"] = "course"      # the evaluation course, or the flat walking trial
     robots: int = 200                                # flat trial: robots per policy and speed
     seconds: float = 20.0                            # flat trial: its length [s]
+    protocol: Literal["none", "paper"] = "none"      # paper: the speed sweep and the 0.15 m/s terrain ablation
+    csv: Path | None = None                          # write the records (and the seed means) as CSV
+
+
+# The paper's protocol (IV-B): its velocity range is not given in numbers; ours spans the training commands.
+PAPER_SPEEDS = (0.15, 0.3, 0.5, 0.75, 1.0)
+PAPER_SWEEP_ROBOTS = 200                             # robots per (kind, level), every kind
+PAPER_ABLATION = {"speed": 0.15, "robots": 25, "kinds": ("stairs_ascend", "slope_ascend")}
 
 
 class Tally:
@@ -144,7 +157,71 @@ def _policies(a: EvalArgs):
     return out + [(STAND, stand)] if a.agent_stand else out
 
 
+def method_of(name: str) -> dict:
+    """{"method", "train_seed"} of a policy in the records: the checkpoint's variant and seed (the stand: itself)."""
+    if name == STAND:
+        return {"method": STAND, "train_seed": None}
+    from cra_warp.learning.checkpoint import read_checkpoint
+
+    info = read_checkpoint(name).get("infos") or {}
+    return {"method": info.get("variant", "ours"), "train_seed": info.get("seed")}
+
+
+def run_protocol(a: EvalArgs) -> list[dict]:
+    """The paper's protocol: the speed sweep over every kind and level, then the 0.15 m/s terrain ablation."""
+    import dataclasses
+
+    speeds = a.speeds if a.speeds != EvalArgs.speeds else PAPER_SPEEDS
+    sweep = dataclasses.replace(a, protocol="none", speeds=speeds, robots_per_level=a.robots_per_level
+                                if a.robots_per_level != EvalArgs.robots_per_level else PAPER_SWEEP_ROBOTS)
+    ab = PAPER_ABLATION
+    ablation = dataclasses.replace(a, protocol="none", speeds=(ab["speed"],), robots_per_level=ab["robots"],
+                                   kinds=tuple(k for k in ab["kinds"] if not a.kinds or k in a.kinds) or ab["kinds"])
+    return ([{**r, "protocol": "speed_sweep"} for r in run(sweep)]
+            + [{**r, "protocol": "ablation"} for r in run(ablation)])
+
+
+def seed_means(records: list[dict]) -> list[dict]:
+    """Per method and cell (protocol, trial, speed, kind, level): mean and std of the success rate over the
+    method's checkpoints (its seeds; std 0 for one)."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        key = (r.get("method"), r.get("protocol"), r.get("trial", "course"), r["speed"], r.get("kind"), r.get("level"))
+        groups.setdefault(key, []).append(r)
+    out = []
+    for (method, protocol, trial, speed, kind, level), rs in groups.items():
+        v = torch.tensor([r["success_rate"] for r in rs], dtype=torch.float64)
+        out.append({"method": method, "protocol": protocol, "trial": trial, "speed": speed, "kind": kind,
+                    "level": level, "difficulty": rs[0].get("difficulty"), "seeds": len(rs),
+                    "success_mean": float(v.mean()), "success_std": float(v.std(unbiased=False))})
+    return out
+
+
+def write_csv(path: Path, records: list[dict]) -> None:
+    """The records, then the seed means, as one CSV (a "table" column tells them apart); written atomically."""
+    import csv
+    import io
+    import os
+
+    rows = [{"table": "record", **r} for r in records] + [{"table": "seed_mean", **m} for m in seed_means(records)]
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols)
+    w.writeheader()
+    w.writerows(rows)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(buf.getvalue())
+    os.replace(tmp, path)
+
+
 def run(a: EvalArgs) -> list[dict]:
+    if a.protocol == "paper":
+        return run_protocol(a)
+    methods = {name: method_of(name) for name, _ in _policies(a)}
+    return [{**methods[r["policy"]], **r} for r in _run(a)]
+
+
+def _run(a: EvalArgs) -> list[dict]:
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.terrain_course import EVAL_KINDS, EvalCourseConfig
     from envs.loco_config import DomainRandConfig
@@ -184,6 +261,13 @@ def run(a: EvalArgs) -> list[dict]:
 def print_table(records: list[dict]) -> None:
     """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top (the flat
     trial: one row per policy and speed)."""
+    means = [m for m in seed_means(records) if m["seeds"] > 1]
+    if means:
+        print(f"\nmean (std) success % over seeds: {', '.join(dict.fromkeys(m['method'] for m in means))}")
+        for m in means:
+            where = m["kind"] and f"{m['kind']} level {m['level']}" or m["trial"]
+            print(f"  {m['method']:12} {m['protocol'] or '':12} {m['speed']:5.2f} m/s {where:24} "
+                  f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}")
     if records and records[0].get("trial") == "flat":
         print(f"{'policy':40} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10}")
         for r in records:
@@ -193,9 +277,10 @@ def print_table(records: list[dict]) -> None:
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
     blocks = {}
     for r in records:
-        blocks.setdefault((r["policy"], r["speed"]), []).append(r)
-    for (policy, speed), rs in blocks.items():
-        print(f"\n{policy} @ {speed:.2f} m/s: success % (falls %), {rs[0]['robots']} robots per level")
+        blocks.setdefault((r["policy"], r["speed"], r.get("protocol")), []).append(r)
+    for (policy, speed, protocol), rs in blocks.items():
+        print(f"\n{policy} @ {speed:.2f} m/s{f' ({protocol})' if protocol else ''}: success % (falls %), "
+              f"{rs[0]['robots']} robots per level")
         for kind in dict.fromkeys(r["kind"] for r in rs):
             row = [r for r in rs if r["kind"] == kind]
             unit, scale = units[kind.split("_")[0]]
@@ -224,8 +309,11 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--robots-per-level must be >= 1, got {a.robots_per_level}")
         if not a.speeds or not all(math.isfinite(v) and v > 0 for v in a.speeds):
             raise UsageError(f"--speeds must be finite and > 0 m/s, got {a.speeds}")
-        if a.json is not None and not a.json.parent.is_dir():
-            raise UsageError(f"--json {a.json}: no such directory {a.json.parent}")
+        for flag, path in (("--json", a.json), ("--csv", a.csv)):
+            if path is not None and not path.parent.is_dir():
+                raise UsageError(f"{flag} {path}: no such directory {path.parent}")
+        if a.protocol == "paper" and a.trial != "course":
+            raise UsageError("--protocol paper runs the course (not --trial flat)")
         check_sim(a.sim, a.device)
         check_device(a.device)
         records = run(a)
@@ -236,6 +324,9 @@ def main(argv: list[str] | None = None) -> int:
     if a.json is not None:
         write_json(a.json, records)
         print(f"wrote {a.json}")
+    if a.csv is not None:
+        write_csv(a.csv, records)
+        print(f"wrote {a.csv}")
     return 0
 
 
