@@ -1,0 +1,228 @@
+"""cra-figures: the paper's four figures (IV-B) from training logs, cra-eval results and a stairs rollout.
+
+    cra-figures --runs ours=g/ours-s1,g/ours-s2 dwl=g/dwl-s1,g/dwl-s2 --eval g/eval.json \\
+                --torque g/ours-s1/model_1500.pt --out figures/
+
+    terrain_level.png       terrain level vs iteration per method (TensorBoard "/terrain_level"; seeds thin,
+                            their mean thick)
+    success_vs_speed.png    success rate vs commanded speed per method: cra-eval's speed sweep, each policy's rate
+                            over every kind and level, mean +- std over the method's seeds
+    success_vs_terrain.png  success rate vs stair height and vs slope at 0.15 m/s (cra-eval's ablation; the
+                            speed sweep's 0.15 m/s records when there is no ablation), error bars over seeds
+    torque_velocity.png     joint velocity vs torque of the leg joints of one policy climbing stairs (a rollout of
+                            --torque on the course's stairs ascent, robots still up)
+
+Each PNG has a JSON of what it draws beside it. A figure whose inputs were not given is skipped (said so).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from pathlib import Path
+
+from cra_warp.atomic_json import write_json
+from tools.curves import parse_arm, read_scalars
+
+LEVEL_TAG = "/terrain_level"
+LEG_JOINTS = ("hipPitch", "hipRoll", "kneePitch", "anklePitch")  # the paper's scatter: the major leg joints
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, path: Path, data) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    _plt().close(fig)
+    write_json(path.with_suffix(".json"), data)
+
+
+def terrain_levels(runs: dict[str, list[Path]], path: Path) -> dict:
+    plt = _plt()
+    data = {m: [read_scalars(d, (LEVEL_TAG,))[LEVEL_TAG] for d in dirs] for m, dirs in runs.items()}
+    for m, series in data.items():
+        if not any(series):
+            raise ValueError(f"method {m}: no {LEVEL_TAG} values in its runs (trained on flat ground?)")
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for k, (m, series) in enumerate(data.items()):
+        c = f"C{k}"
+        dicts = [dict(s) for s in series]
+        for s in dicts:
+            ax.plot(list(s), list(s.values()), color=c, alpha=0.3, lw=0.8)
+        common = sorted(set.intersection(*(set(s) for s in dicts)))
+        ax.plot(common, [statistics.mean(s[i] for s in dicts) for i in common], color=c, lw=2,
+                label=f"{m} ({len(dicts)} seeds)")
+    ax.set(xlabel="iteration", ylabel="mean terrain level", title="Terrain level over training")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    _save(fig, path, {m: [list(map(list, s)) for s in series] for m, series in data.items()})
+    return data
+
+
+def _per_policy(records: list[dict], key) -> dict:
+    """{method: {x: [per-policy success rate over its records at x]}} (a policy's rate: its records' mean)."""
+    cells: dict[tuple, list[float]] = {}
+    for r in records:
+        x = key(r)
+        if x is not None:
+            cells.setdefault((r.get("method", r["policy"]), x, r["policy"]), []).append(r["success_rate"])
+    out: dict[str, dict] = {}
+    for (m, x, _), rates in sorted(cells.items(), key=lambda kv: (kv[0][0], kv[0][1])):
+        out.setdefault(m, {}).setdefault(x, []).append(statistics.mean(rates))
+    return out
+
+
+def _errorbars(ax, per: dict, scale: float = 1.0) -> dict:
+    drawn = {}
+    for k, (m, xs) in enumerate(per.items()):
+        x = sorted(xs)
+        mean = [100 * statistics.mean(xs[v]) for v in x]
+        std = [100 * statistics.pstdev(xs[v]) for v in x]
+        ax.errorbar([v * scale for v in x], mean, yerr=std, color=f"C{k}", marker="o", capsize=3,
+                    label=f"{m} ({max(len(v) for v in xs.values())} seeds)")
+        drawn[m] = {"x": [v * scale for v in x], "mean": mean, "std": std, "seeds": [len(xs[v]) for v in x]}
+    ax.set_ylim(-5, 105)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    return drawn
+
+
+def success_vs_speed(records: list[dict], path: Path) -> dict:
+    sweep = [r for r in records if r.get("protocol", "speed_sweep") == "speed_sweep" and "kind" in r]
+    if not sweep:
+        raise ValueError("no course records of a speed sweep in --eval (run cra-eval --protocol paper)")
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    data = _errorbars(ax, _per_policy(sweep, lambda r: r["speed"]))
+    ax.set(xlabel="command velocity [m/s]", ylabel="success rate [%]", title="Success vs command velocity")
+    _save(fig, path, data)
+    return data
+
+
+def success_vs_terrain(records: list[dict], path: Path, speed: float = 0.15) -> dict:
+    course = [r for r in records if "kind" in r and abs(r["speed"] - speed) < 1e-6]
+    ablation = [r for r in course if r.get("protocol") == "ablation"]
+    course = ablation or course
+    panels = (("stairs_ascend", "stair height [cm]", 100.0), ("slope_ascend", "slope [deg]", 1.0))
+    if not any(r["kind"] == kind for r in course for kind, _, _ in panels):
+        raise ValueError(f"no stairs or slope ascent records at {speed} m/s in --eval")
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    data = {}
+    for ax, (kind, label, scale) in zip(axes, panels):
+        rs = [r for r in course if r["kind"] == kind]
+        data[kind] = _errorbars(ax, _per_policy(rs, lambda r: r["difficulty"]), scale)
+        ax.set(xlabel=label, ylabel="success rate [%]", title=f"{kind.split('_')[0]} at {speed} m/s")
+    _save(fig, path, data)
+    return data
+
+
+def record_stairs(checkpoint: Path, robots: int = 5, speed: float = 0.15, sim: str | None = None,
+                  level: int = 2) -> dict:
+    """Leg joints' velocity and torque, every step of ``robots`` robots climbing the course's stairs at ``level``
+    (0: 5 cm), robots still up only: {joint: {"qd": [...], "tau": [...]}}."""
+    import torch
+
+    from cra_warp.terrain_course import EvalCourseConfig
+    from envs.loco_config import DomainRandConfig
+    from train.evaluate import evaluate
+    from train.runner import runner_for_checkpoint
+
+    course = EvalCourseConfig(kinds=("stairs_ascend",))
+    runner, env = runner_for_checkpoint(checkpoint, num_envs=course.num_levels * robots, sim=sim, terrain="eval",
+                                        course=course, randomization=DomainRandConfig(enabled=False),
+                                        episode_length_s=1e6)
+    policy = runner.get_inference_policy("cpu")
+    names = env.robot.joint_names
+    legs = [i for i, n in enumerate(names) if n.split("_")[0] in LEG_JOINTS]
+    on_level = env.ground.deployment.level == level
+    up = torch.ones(env.num_envs, dtype=torch.bool)
+    qd, tau = [], []
+
+    def act(obs, dones):
+        if qd:  # from the second step on, dones are falls (no time-outs here): a fall ends a robot's record
+            up.logical_and_(~dones)
+        keep = on_level & up
+        qd.append(env.world.joint_vel[keep][:, legs].clone())
+        tau.append(env.world.joint_torque[keep][:, legs].clone())
+        policy.reset(dones)
+        return policy(obs)
+
+    evaluate(env, act, speed)
+    qd, tau = torch.cat(qd), torch.cat(tau)
+    return {names[j]: {"qd": qd[:, k].tolist(), "tau": tau[:, k].tolist()} for k, j in enumerate(legs)}
+
+
+def torque_velocity(samples: dict, path: Path, title: str) -> dict:
+    plt = _plt()
+    kinds = list(dict.fromkeys(n.split("_")[0] for n in samples))
+    fig, axes = plt.subplots(1, len(kinds), figsize=(4 * len(kinds), 3.8), squeeze=False)
+    for ax, kind in zip(axes[0], kinds):
+        for c, side in (("C0", "Left"), ("C3", "Right")):
+            s = samples.get(f"{kind}_{side}")
+            if s:
+                ax.scatter(s["qd"], s["tau"], s=2, alpha=0.3, color=c, label=side)
+        ax.set(xlabel="joint velocity [rad/s]", ylabel="torque [N m]", title=kind)
+        ax.grid(alpha=0.3)
+        ax.legend(markerscale=4)
+    fig.suptitle(title)
+    _save(fig, path, samples)
+    return samples
+
+
+def main(argv: list[str] | None = None) -> int:
+    import json
+
+    p = argparse.ArgumentParser(prog="cra-figures", description=__doc__.split("\n\n")[0])
+    p.add_argument("--runs", nargs="+", default=[], help="METHOD=DIR[,DIR...] training runs (one per seed)")
+    p.add_argument("--eval", nargs="+", type=Path, default=[], help="cra-eval --json files")
+    p.add_argument("--torque", type=Path, help="a checkpoint to record climbing stairs for the scatter")
+    p.add_argument("--torque-level", type=int, default=2, help="stairs level of the scatter (0: 5 cm, 2: 15 cm)")
+    p.add_argument("--sim", choices=("newton", "mujoco"), help="simulator of the stairs rollout")
+    p.add_argument("--out", type=Path, required=True, help="directory for the PNGs and their JSON")
+    a = p.parse_args(argv)
+    try:
+        if not (a.runs or a.eval or a.torque):
+            raise ValueError("nothing to draw: give --runs, --eval and/or --torque")
+        runs = dict(parse_arm(t) for t in a.runs)
+        records = []
+        for f in a.eval:
+            try:
+                records += json.loads(f.read_text())
+            except (OSError, ValueError) as e:
+                raise ValueError(f"--eval {f}: not a cra-eval JSON ({e})") from None
+        if a.torque is not None and not a.torque.is_file():
+            raise ValueError(f"--torque {a.torque}: no such checkpoint")
+        a.out.mkdir(parents=True, exist_ok=True)
+        wrote = []
+        if runs:
+            terrain_levels(runs, a.out / "terrain_level.png")
+            wrote.append("terrain_level.png")
+        if records:
+            success_vs_speed(records, a.out / "success_vs_speed.png")
+            success_vs_terrain(records, a.out / "success_vs_terrain.png")
+            wrote += ["success_vs_speed.png", "success_vs_terrain.png"]
+        if a.torque is not None:
+            samples = record_stairs(a.torque, sim=a.sim, level=a.torque_level)
+            torque_velocity(samples, a.out / "torque_velocity.png", f"{a.torque} climbing stairs")
+            wrote.append("torque_velocity.png")
+    except ValueError as e:
+        print(f"cra-figures: {e}", file=sys.stderr)
+        return 2
+    skipped = [n for n, given in (("terrain_level (--runs)", runs), ("success (--eval)", records),
+                                  ("torque_velocity (--torque)", a.torque)) if not given]
+    print(f"wrote {', '.join(str(a.out / w) for w in wrote)}" + (f"; skipped {', '.join(skipped)}" if skipped else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
