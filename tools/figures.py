@@ -49,9 +49,9 @@ def _save(fig, path: Path, data) -> None:
 def terrain_levels(runs: dict[str, list[Path]], path: Path) -> dict:
     plt = _plt()
     data = {m: [read_scalars(d, (LEVEL_TAG,))[LEVEL_TAG] for d in dirs] for m, dirs in runs.items()}
-    for m, series in data.items():
-        if not any(series):
-            raise ValueError(f"method {m}: no {LEVEL_TAG} values in its runs (trained on flat ground?)")
+    empty = [m for m, series in data.items() if not all(series)]
+    if empty:  # a run logs the level when its first episodes end; a flat run never does
+        raise ValueError(f"no {LEVEL_TAG} values in some runs of {', '.join(empty)} (flat ground, or too short?)")
     fig, ax = plt.subplots(figsize=(6, 4))
     for k, (m, series) in enumerate(data.items()):
         c = f"C{k}"

@@ -17,9 +17,10 @@ for --seconds; success = no fall; tracking error = mean |v_x - speed| (base fram
 the first 2 s (the start from rest).
 
 The paper's protocol (IV-B), one option: --protocol paper runs (1) the speed sweep, 200 robots per level of every
-kind at each of --speeds (default 0.15 ... 1.0 m/s), and (2) the terrain ablation, 25 robots per level of the stairs
-and slope ascents at 0.15 m/s. Records name the method (the checkpoint's variant) and its training seed; with
-several seeds of a method, the table and --csv also give each cell's mean and std over the seeds.
+kind at each of --speeds (default 0.15 ... 1.0 m/s), and (2) the terrain ablation, 25 robots per level of the
+stairs and slope ascents at 0.15 m/s (--robots-per-level and --ablation-robots scale both down for a CPU). Records
+name the method (the checkpoint's variant) and its training seed; with several seeds of a method, the table and
+--csv also give each cell's mean and std over the seeds.
 """
 
 from __future__ import annotations
@@ -43,8 +44,8 @@ STAND = "stand"  # the name of the scripted-stand floor in reports
 class EvalArgs:
     checkpoints: Positional[tuple[Path, ...]] = ()   # cra-train checkpoints to compare (model_<it>.pt)
     agent_stand: bool = False                        # also evaluate the scripted stand (a floor)
-    speeds: tuple[float, ...] = (0.5,)               # forward commands [m/s]
-    robots_per_level: int = 10
+    speeds: tuple[float, ...] | None = None          # forward commands [m/s]; default 0.5 (paper protocol: its sweep)
+    robots_per_level: int | None = None              # default 10 (paper protocol: 200 in the sweep)
     kinds: tuple[str, ...] = ()                      # a subset of the course kinds; default all
     device: str = "cpu"
     sim: Sim | None = None                           # default: each checkpoint's (newton for the stand)
@@ -54,13 +55,15 @@ class EvalArgs:
     robots: int = 200                                # flat trial: robots per policy and speed
     seconds: float = 20.0                            # flat trial: its length [s]
     protocol: Literal["none", "paper"] = "none"      # paper: the speed sweep and the 0.15 m/s terrain ablation
+    ablation_robots: int = 25                        # paper protocol: robots per level of the ablation
     csv: Path | None = None                          # write the records (and the seed means) as CSV
 
 
 # The paper's protocol (IV-B): its velocity range is not given in numbers; ours spans the training commands.
 PAPER_SPEEDS = (0.15, 0.3, 0.5, 0.75, 1.0)
 PAPER_SWEEP_ROBOTS = 200                             # robots per (kind, level), every kind
-PAPER_ABLATION = {"speed": 0.15, "robots": 25, "kinds": ("stairs_ascend", "slope_ascend")}
+PAPER_ABLATION = {"speed": 0.15, "kinds": ("stairs_ascend", "slope_ascend")}
+DEFAULT_SPEEDS, DEFAULT_ROBOTS = (0.5,), 10          # without the protocol
 
 
 class Tally:
@@ -171,11 +174,10 @@ def run_protocol(a: EvalArgs) -> list[dict]:
     """The paper's protocol: the speed sweep over every kind and level, then the 0.15 m/s terrain ablation."""
     import dataclasses
 
-    speeds = a.speeds if a.speeds != EvalArgs.speeds else PAPER_SPEEDS
-    sweep = dataclasses.replace(a, protocol="none", speeds=speeds, robots_per_level=a.robots_per_level
-                                if a.robots_per_level != EvalArgs.robots_per_level else PAPER_SWEEP_ROBOTS)
+    sweep = dataclasses.replace(a, protocol="none", speeds=a.speeds or PAPER_SPEEDS,
+                                robots_per_level=a.robots_per_level or PAPER_SWEEP_ROBOTS)
     ab = PAPER_ABLATION
-    ablation = dataclasses.replace(a, protocol="none", speeds=(ab["speed"],), robots_per_level=ab["robots"],
+    ablation = dataclasses.replace(a, protocol="none", speeds=(ab["speed"],), robots_per_level=a.ablation_robots,
                                    kinds=tuple(k for k in ab["kinds"] if not a.kinds or k in a.kinds) or ab["kinds"])
     return ([{**r, "protocol": "speed_sweep"} for r in run(sweep)]
             + [{**r, "protocol": "ablation"} for r in run(ablation)])
@@ -215,8 +217,11 @@ def write_csv(path: Path, records: list[dict]) -> None:
 
 
 def run(a: EvalArgs) -> list[dict]:
+    import dataclasses
+
     if a.protocol == "paper":
         return run_protocol(a)
+    a = dataclasses.replace(a, speeds=a.speeds or DEFAULT_SPEEDS, robots_per_level=a.robots_per_level or DEFAULT_ROBOTS)
     methods = {name: method_of(name) for name, _ in _policies(a)}
     return [{**methods[r["policy"]], **r} for r in _run(a)]
 
@@ -305,9 +310,10 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--kinds must be among {', '.join(EVAL_KINDS)}, got {', '.join(bad)}")
         if a.robots < 1 or not (math.isfinite(a.seconds) and a.seconds > 2.0):
             raise UsageError(f"--robots must be >= 1 and --seconds > 2, got {a.robots} and {a.seconds}")
-        if a.robots_per_level < 1:
-            raise UsageError(f"--robots-per-level must be >= 1, got {a.robots_per_level}")
-        if not a.speeds or not all(math.isfinite(v) and v > 0 for v in a.speeds):
+        if (a.robots_per_level is not None and a.robots_per_level < 1) or a.ablation_robots < 1:
+            raise UsageError(f"--robots-per-level and --ablation-robots must be >= 1, got {a.robots_per_level} "
+                             f"and {a.ablation_robots}")
+        if a.speeds is not None and not (a.speeds and all(math.isfinite(v) and v > 0 for v in a.speeds)):
             raise UsageError(f"--speeds must be finite and > 0 m/s, got {a.speeds}")
         for flag, path in (("--json", a.json), ("--csv", a.csv)):
             if path is not None and not path.parent.is_dir():

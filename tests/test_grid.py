@@ -1,0 +1,50 @@
+"""cra-grid: the plan skips finished runs and resumes unfinished ones; a tiny grid runs end to end (train, the
+paper's protocol, figures, table) and a second call redoes nothing."""
+
+from __future__ import annotations
+
+import json
+
+from conftest import one_line_error
+from train import grid
+
+
+def test_plan_skips_done_runs_and_resumes_the_rest(tmp_path):
+    a = grid.GridArgs(methods=("ours", "dwl"), seeds=(1,), out=tmp_path, iterations=3)
+    fresh = grid.plan(a)
+    assert all(j["cmd"] and "--resume" not in j["cmd"] for j in fresh)
+    assert fresh[0]["cmd"][fresh[0]["cmd"].index("--max-iterations") + 1] == "3"
+    (tmp_path / "train" / "ours-s1" / "rough_ours_x").mkdir(parents=True)
+    (tmp_path / "train" / "ours-s1" / "rough_ours_x" / "model_0.pt").write_bytes(b"")
+    (tmp_path / "train" / "dwl-s1" / "rough_dwl_x").mkdir(parents=True)
+    (tmp_path / "train" / "dwl-s1" / "rough_dwl_x" / "model_2.pt").write_bytes(b"")
+    ours, dwl = grid.plan(a)
+    assert ours["cmd"][ours["cmd"].index("--max-iterations") + 1] == "2" and "--resume" in ours["cmd"]
+    assert dwl["cmd"] is None and dwl["final"].name == "model_2.pt"
+
+
+def test_grid_rejects_bad_values(capsys, tmp_path):
+    one_line_error(capsys, grid.main(["--scale", "tpu"]), "--scale")
+    one_line_error(capsys, grid.main(["--methods", "magic"]), "--methods")
+    one_line_error(capsys, grid.main(["--iterations", "0", "--out", str(tmp_path)]), "--iterations")
+
+
+def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path):
+    # 8 iterations: long enough for the first falls, when a run first logs its terrain level
+    args = ["--methods", "ours", "dwl", "--seeds", "1", "--iterations", "8", "--num-envs", "4", "--parallel", "1",
+            "--out", str(tmp_path), "--eval-args=--robots-per-level 1 --speeds 1.0 --ablation-robots 1 --sim mujoco"]
+    assert grid.main(args) == 0
+    for m in ("ours", "dwl"):
+        records = json.loads((tmp_path / "eval" / f"{m}.json").read_text())
+        assert {r["protocol"] for r in records} == {"speed_sweep", "ablation"} and {r["method"] for r in records} == {m}
+    for name in grid.FIGURES:
+        assert (tmp_path / "figures" / f"{name}.png").is_file()
+    table = json.loads((tmp_path / "table.json").read_text())
+    assert {m["method"] for m in table["seed_means"]} == {"ours", "dwl"}
+    assert (tmp_path / "table.csv").read_text().startswith("table,")
+    lines = []
+    grid.run(grid.GridArgs(methods=("ours", "dwl"), seeds=(1,), iterations=8, num_envs=4, parallel=1, out=tmp_path,
+                           eval_args="--robots-per-level 1 --speeds 1.0 --ablation-robots 1 --sim mujoco"),
+             log=lines.append)
+    assert not any(line.startswith("training") for line in lines)
+    assert sum("up to date" in line for line in lines) == 3, lines   # two evaluations, the figures

@@ -1,0 +1,192 @@
+"""cra-grid: the paper's whole comparison in one command: train every method and seed, evaluate them with the
+paper's protocol, draw its figures and the table.
+
+    cra-grid --scale cpu --out grid/                         # this 2-core CPU (see SCALES)
+    cra-grid --scale gpu --methods ours dwl dreamwaq --seeds 1 2 3 --out grid/
+
+    <out>/train/<method>-s<seed>/   cra-train runs (rough terrain); resumed where a previous call stopped
+    <out>/eval/<method>.json        cra-eval --protocol paper over the method's final checkpoints (all seeds)
+    <out>/figures/                  cra-figures: terrain level, success vs speed, vs stairs / slope, torque scatter
+    <out>/table.csv, table.json     every record and each cell's mean and std over seeds
+
+Resumable: a run whose final checkpoint exists is not trained again, an unfinished one resumes from its newest
+checkpoint, and a method's evaluation is redone only when one of its checkpoints is newer than its JSON.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from train.cli import VARIANTS, UsageError, Variant, parse_args
+
+# The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
+# cpu: what this 2-core machine trains in a night: 21 runs x 300 iterations on the MuJoCo backend, two at a time
+# (~6 h if a rough iteration costs what a flat one does, ~6.6 s per core), evaluated with 10 robots per level.
+SCALES = {
+    "gpu": {"num_envs": 4096, "iterations": 10000, "sim": "newton", "device": "cuda:0", "parallel": 1,
+            "eval": []},
+    "cpu": {"num_envs": 256, "iterations": 300, "sim": "mujoco", "device": "cpu", "parallel": 2,
+            "eval": ["--robots-per-level", "10", "--speeds", "0.15", "0.5", "1.0", "--ablation-robots", "10"]},
+}
+
+
+FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_velocity")
+
+
+@dataclass
+class GridArgs:
+    scale: str = "cpu"                                  # cpu | gpu (see SCALES)
+    methods: tuple[Variant, ...] = tuple(VARIANTS)      # registered variants (cra-train --variant)
+    seeds: tuple[int, ...] = (1, 2, 3)
+    out: Path = Path("grid")
+    iterations: int | None = None                       # the scale's unless given
+    num_envs: int | None = None                         # the scale's unless given
+    parallel: int | None = None                         # training processes at a time (cpu: one core each)
+    eval_args: str = ""                                 # cra-eval arguments instead of the scale's: --eval-args="--speeds 1"
+    dry_run: bool = False                               # print what would run, run nothing
+
+
+def _newest(run_dir: Path) -> tuple[int, Path] | None:
+    found = [(int(p.stem.split("_")[1]), p) for p in run_dir.glob("*/model_*.pt") if p.stem.split("_")[1].isdigit()]
+    return max(found, key=lambda ip: (ip[0], ip[1].stat().st_mtime)) if found else None
+
+
+def plan(a: GridArgs) -> list[dict]:
+    """One entry per (method, seed): its run directory, the command left to run (None when done), final ckpt."""
+    s = SCALES[a.scale]
+    total = a.iterations or s["iterations"]
+    jobs = []
+    for m in a.methods:
+        for seed in a.seeds:
+            run_dir = a.out / "train" / f"{m}-s{seed}"
+            newest = _newest(run_dir)
+            done_it = newest[0] + 1 if newest else 0
+            cmd = None
+            if done_it < total:
+                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", m, "--seed", str(seed),
+                       "--num-envs", str(a.num_envs or s["num_envs"]), "--sim", s["sim"], "--device", s["device"],
+                       "--max-iterations", str(total - done_it), "--log-dir", str(run_dir), "--quiet",
+                       "--save-interval", "20", "--no-export"]
+                if newest:
+                    cmd += ["--resume", str(run_dir)]
+            jobs.append({"method": m, "seed": seed, "run_dir": run_dir, "cmd": cmd,
+                         "final": newest[1] if newest and cmd is None else None})
+    return jobs
+
+
+def train_all(jobs: list[dict], parallel: int, log) -> None:
+    """Run the pending trainings, ``parallel`` at a time, each pinned to its own core where there are enough."""
+    pending = [j for j in jobs if j["cmd"]]
+    cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    running: list[tuple[subprocess.Popen, dict, int, object]] = []
+    free = list(range(parallel))
+    while pending or running:
+        while pending and free:
+            j, slot = pending.pop(0), free.pop(0)
+            j["run_dir"].mkdir(parents=True, exist_ok=True)
+            pin = {cores[slot]} if parallel > 1 and len(cores) >= parallel else None
+            logf = open(j["run_dir"] / "train.log", "a")
+            p = subprocess.Popen(j["cmd"], stdout=logf, stderr=subprocess.STDOUT,
+                                 preexec_fn=(lambda c=pin: os.sched_setaffinity(0, c)) if pin else None)
+            log(f"training {j['method']} seed {j['seed']} (pid {p.pid}{f', core {cores[slot]}' if pin else ''})")
+            running.append((p, j, slot, logf))
+        finished = [r for r in running if r[0].poll() is not None]
+        if not finished:
+            time.sleep(2)
+            continue
+        for r in finished:
+            p, j, slot, logf = r
+            logf.close()
+            running.remove(r)
+            if p.returncode != 0:
+                for q, *_ in running:  # stop the others: the grid is resumable, nothing is lost
+                    q.terminate()
+                raise UsageError(f"training {j['method']} seed {j['seed']} failed (exit {p.returncode}); "
+                                 f"see {j['run_dir'] / 'train.log'}")
+            free.append(slot)
+
+
+def evaluate_all(a: GridArgs, jobs: list[dict], log) -> list[Path]:
+    """cra-eval --protocol paper per method over its seeds' final checkpoints; skipped when up to date."""
+    from train import evaluate
+
+    outs = []
+    for m in a.methods:
+        ckpts = [_newest(j["run_dir"])[1] for j in jobs if j["method"] == m]
+        out = a.out / "eval" / f"{m}.json"
+        outs.append(out)
+        if out.is_file() and all(c.stat().st_mtime <= out.stat().st_mtime for c in ckpts):
+            log(f"evaluation of {m}: up to date ({out})")
+            continue
+        out.parent.mkdir(parents=True, exist_ok=True)
+        args = [*map(str, ckpts), "--protocol", "paper", "--json", str(out), "--device", SCALES[a.scale]["device"],
+                *(shlex.split(a.eval_args) if a.eval_args else SCALES[a.scale]["eval"])]
+        log(f"evaluating {m}: cra-eval {' '.join(args)}")
+        if evaluate.main(args) != 0:
+            raise UsageError(f"evaluation of {m} failed (cra-eval {' '.join(args)})")
+    return outs
+
+
+def run(a: GridArgs, log=print) -> list[dict]:
+    import json
+
+    from tools import figures
+    from train.evaluate import seed_means, write_csv
+
+    jobs = plan(a)
+    if a.dry_run:
+        for j in jobs:
+            log(f"{j['method']:12} seed {j['seed']}: " + (" ".join(j["cmd"]) if j["cmd"] else f"done ({j['final']})"))
+        return jobs
+    train_all(jobs, a.parallel or SCALES[a.scale]["parallel"], log)
+    evals = evaluate_all(a, jobs, log)
+    records = [r for f in evals for r in json.loads(f.read_text())]
+    runs = [f"{m}={','.join(str(j['run_dir']) for j in jobs if j['method'] == m)}" for m in a.methods]
+    drawn = [a.out / "figures" / f"{n}.png" for n in FIGURES] + [a.out / "table.json"]
+    if all(f.is_file() for f in drawn) and max(e.stat().st_mtime for e in evals) <= min(
+            f.stat().st_mtime for f in drawn):
+        log(f"figures and table: up to date ({a.out / 'figures'})")
+        return jobs
+    ours = next((j for j in jobs if j["method"] == "ours"), jobs[0])
+    fig_args = ["--runs", *runs, "--eval", *map(str, evals), "--out", str(a.out / "figures"),
+                "--torque", str(_newest(ours["run_dir"])[1]), "--sim", SCALES[a.scale]["sim"]]
+    if figures.main(fig_args) != 0:
+        raise UsageError(f"cra-figures {' '.join(fig_args)} failed")
+    write_csv(a.out / "table.csv", records)
+    from cra_warp.atomic_json import write_json
+
+    write_json(a.out / "table.json", {"records": records, "seed_means": seed_means(records)})
+    log(f"wrote {a.out / 'figures'}, {a.out / 'table.csv'}")
+    return jobs
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        a = parse_args(GridArgs, argv, __doc__)
+        if a.scale not in SCALES:
+            raise UsageError(f"--scale must be one of {', '.join(SCALES)}, got {a.scale!r}")
+        bad = [m for m in a.methods if m not in VARIANTS]
+        if bad or not a.methods or not a.seeds:
+            raise UsageError(f"--methods must be among {', '.join(VARIANTS)} and --seeds non-empty, got "
+                             f"{', '.join(bad) or 'none'}")
+        for flag, v in (("--iterations", a.iterations), ("--num-envs", a.num_envs), ("--parallel", a.parallel)):
+            if v is not None and v < 1:
+                raise UsageError(f"{flag} must be >= 1, got {v}")
+        if a.out.exists() and not a.out.is_dir():
+            raise UsageError(f"--out {a.out}: not a directory")
+        a = replace(a, methods=tuple(dict.fromkeys(a.methods)), seeds=tuple(dict.fromkeys(a.seeds)))
+        run(a)
+    except UsageError as e:
+        print(f"cra-grid: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
