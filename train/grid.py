@@ -48,7 +48,8 @@ class GridArgs:
     iterations: int | None = None                       # the scale's unless given
     num_envs: int | None = None                         # the scale's unless given
     parallel: int | None = None                         # training processes at a time (cpu: one core each)
-    eval_args: str = ""                                 # cra-eval arguments instead of the scale's: --eval-args="--speeds 1"
+    # cra-eval arguments instead of the scale's, as one string: --eval-args="--speeds 1 --robots-per-level 2"
+    eval_args: str = ""
     dry_run: bool = False                               # print what would run, run nothing
 
 
