@@ -9,9 +9,10 @@
 A DreamWaQ policy has the same interface; its state is its window of past observations (network.history), not a
 GRU's: [1, 1, (history - 1) D].
 
-Both graphs are the models' own export wrappers (``as_jit`` / ``as_onnx``, the ones ``OnPolicyRunner.export_policy_to_*``
-use: rsl-rl's, or baselines.py's for DreamWaQ) and contain the observation normaliser, so the deploy program feeds the observation as the env builds it
-(scaled, clipped, not normalised) and applies the deterministic (mean) action.
+Both graphs are the models' own export wrappers (``as_jit`` / ``as_onnx``, the ones
+``OnPolicyRunner.export_policy_to_*`` use: rsl-rl's, or baselines.py's for DreamWaQ) and contain the observation
+normaliser, so the deploy program feeds the observation as the env builds it (scaled, clipped, not normalised) and
+applies the deterministic (mean) action.
 cra_warp does not import the task: the caller passes the task metadata (see :data:`REQUIRED_METADATA`).
 """
 
