@@ -203,7 +203,8 @@ def write_csv(path: Path, records: list[dict]) -> None:
     """The records, then the seed means, as one CSV (a "table" column tells them apart); written atomically."""
     import csv
     import io
-    import os
+
+    from cra_warp.atomic_json import write_text
 
     rows = [{"table": "record", **r} for r in records] + [{"table": "seed_mean", **m} for m in seed_means(records)]
     cols = list(dict.fromkeys(k for r in rows for k in r))
@@ -211,9 +212,7 @@ def write_csv(path: Path, records: list[dict]) -> None:
     w = csv.DictWriter(buf, fieldnames=cols)
     w.writeheader()
     w.writerows(rows)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(buf.getvalue())
-    os.replace(tmp, path)
+    write_text(path, buf.getvalue())
 
 
 def run(a: EvalArgs) -> list[dict]:

@@ -54,8 +54,11 @@ class GridArgs:
 
 
 def _newest(run_dir: Path) -> tuple[int, Path] | None:
-    found = [(int(p.stem.split("_")[1]), p) for p in run_dir.glob("*/model_*.pt") if p.stem.split("_")[1].isdigit()]
-    return max(found, key=lambda ip: (ip[0], ip[1].stat().st_mtime)) if found else None
+    """(iteration, path) of the run's newest checkpoint (cra-train --resume's choice), None before the first."""
+    from train.train import newest_checkpoint
+
+    path = newest_checkpoint(run_dir) if run_dir.is_dir() else None
+    return (int(path.stem.split("_")[1]), path) if path else None
 
 
 def plan(a: GridArgs) -> list[dict]:
