@@ -70,7 +70,7 @@ class ObsConfig:
 
 @dataclass
 class RewardConfig:
-    """Weights are Table I's; the term functions live in envs/rewards.py."""
+    """Weights are Table I's (and 0 for the shaping terms beyond it); the term functions live in envs/rewards.py."""
 
     weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_WEIGHTS))
     tracking_sigma: float = 0.25
@@ -85,6 +85,8 @@ class RewardConfig:
     only_positive_rewards: bool = True               # clip the summed reward at 0 (see the module docstring)
     # Added to the (clipped) step reward of a robot that falls; not a Table I term (the paper gives none), 0 = off.
     termination_penalty: float = 0.0
+    swing_amplitude: float = 0.25                    # [rad] A of swing_reference (robot's swing_profile x A)
+    swing_scale: float = 0.5                         # [rad] of joint error at which swing_reference falls to 1/e
 
 
 # Table I of the paper, in its order.
@@ -120,6 +122,9 @@ DEFAULT_WEIGHTS: dict[str, float] = {
     "contact_momentum": -2.5e-2,
     "contact_pattern": 1.0,
 }
+TABLE_I_TERMS: tuple[str, ...] = tuple(DEFAULT_WEIGHTS)
+# Beyond Table I: off unless a run sets a weight (e.g. --override rewards.weights.swing_reference=2).
+DEFAULT_WEIGHTS["swing_reference"] = 0.0
 
 
 @dataclass

@@ -61,6 +61,9 @@ class LocoEnv(VecEnv):
         self.arm_joints = torch.tensor(robot.joint_ids(robot.arm_joints), **d)
         self.hip_joints = torch.tensor(robot.joint_ids(robot.hip_joints), **d)
         self.waist_joints = torch.tensor(robot.joint_ids(robot.waist_joints), **d)
+        self.swing_joints = torch.tensor([robot.joint_ids(leg) for leg in robot.swing_joints], dtype=torch.long,
+                                         device=self.device).view(len(robot.swing_joints), len(robot.swing_profile))
+        self.swing_profile = torch.tensor(robot.swing_profile, **d)
         self.torso_body = self.world.body_index[robot.torso_link]
         self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)

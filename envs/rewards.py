@@ -1,4 +1,5 @@
-"""The 30 reward terms of the paper's Table I, each a small function of the env's per-step tensors.
+"""The 30 reward terms of the paper's Table I, each a small function of the env's per-step tensors, and the shaping
+terms we add beyond it (at the end, weight 0 by default).
 
 Every term returns r_i [N]; the env multiplies by the weight w_i (envs/loco_config.py, DEFAULT_WEIGHTS) and sums.
 Read this file next to Table I: same names, same order, the equation beside each. Where Table I's sign or form
@@ -158,9 +159,24 @@ def contact_pattern(e: LocoEnv):       # exp(-|m_stance(t) - c_actual(t)|^2)
 contact_pattern.needs_clock = True     # the clock-free variant has no stance mask: the env skips the term
 
 
+# ---- beyond Table I (weight 0 unless a config sets one; envs/loco_config.py says which figure justified it)
+def swing_reference(e: LocoEnv):       # exp(-|q_swing - q_ref(clock)| / scale)
+    # Dense shaping towards stepping in time with the clock: each leg's pitch joints follow a reference that lifts
+    # the foot while the clock has it in swing (depth 0 at the stance threshold gamma, 1 at the swing's middle) and
+    # holds the default pose in stance. Table I only rewards the contact outcome, which standing half satisfies.
+    g = e.clock.cfg.gamma
+    depth = ((g - e.clock.signals) / (1.0 + g)).clamp(0.0, 1.0)                             # [N, feet]
+    ref = e.default_q[e.swing_joints] + e.cfg.rewards.swing_amplitude * depth.unsqueeze(-1) * e.swing_profile
+    err = (e.joint_pos[:, e.swing_joints] - ref).flatten(1).norm(dim=-1)
+    return torch.exp(-err / e.cfg.rewards.swing_scale)
+
+
+swing_reference.needs_clock = True
+
+
 TERMS: dict[str, Callable[[LocoEnv], torch.Tensor]] = {f.__name__: f for f in (
     lin_vel_tracking, ang_vel_tracking, lin_vel_z, ang_vel_xy, orientation, torso_orientation, joint_acc,
     joint_power, body_height, feet_clearance, action_rate, smoothness, feet_stumble, torques, joint_velocity,
     joint_tracking_error, arm_joint_deviation, hip_joint_deviation, waist_joint_deviation, joint_pos_limits,
     joint_vel_limits, torque_limits, no_fly, feet_lateral_distance, feet_slip, feet_ground_parallel,
-    feet_contact_force, feet_parallel, contact_momentum, contact_pattern)}
+    feet_contact_force, feet_parallel, contact_momentum, contact_pattern, swing_reference)}

@@ -43,6 +43,10 @@ class RobotConfig:
     hip_joints: tuple[str, ...] = ()            # hip roll and yaw: hip pitch must swing to walk
     waist_joints: tuple[str, ...] = ()
     torso_link: str = ""
+    # The swing_reference shaping term (not in Table I): per foot, the pitch joints that lift it, and how far each
+    # moves (rad per rad of the reward's swing amplitude) from default_q at the top of the swing.
+    swing_joints: tuple[tuple[str, ...], ...] = ()
+    swing_profile: tuple[float, ...] = ()
 
     def __post_init__(self):
         n = len(self.joint_names)
@@ -54,6 +58,11 @@ class RobotConfig:
             unknown = [j for j in getattr(self, f) if j not in self.joint_names]
             if unknown:
                 raise ValueError(f"RobotConfig.{f} names joints that are not driven: {unknown}")
+        if self.swing_joints and (len(self.swing_joints) != len(self.foot_links)
+                                  or any(len(leg) != len(self.swing_profile) for leg in self.swing_joints)
+                                  or any(j not in self.joint_names for leg in self.swing_joints for j in leg)):
+            raise ValueError(f"RobotConfig.swing_joints needs one tuple of driven joints per foot, each as long as "
+                             f"swing_profile {self.swing_profile}, got {self.swing_joints}")
 
     def joint_ids(self, names: tuple[str, ...]) -> list[int]:
         """Canonical indices of ``names``."""

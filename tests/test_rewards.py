@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from envs import rewards as R
-from envs.loco_config import DEFAULT_WEIGHTS, LocoConfig
+from envs.loco_config import DEFAULT_WEIGHTS, TABLE_I_TERMS, LocoConfig
 from robots.adam_lite import ADAM_LITE
 
 J = ADAM_LITE.num_joints
@@ -51,9 +51,10 @@ def state(n=2, **over):
     return e
 
 
-def test_all_30_terms_with_the_papers_weights():
-    assert list(R.TERMS) == list(PAPER_TABLE_I) == list(DEFAULT_WEIGHTS)
-    assert len(R.TERMS) == 30
+def test_all_30_terms_with_the_papers_weights_and_the_shaping_terms_beyond_them_off():
+    assert list(TABLE_I_TERMS) == list(PAPER_TABLE_I) == list(R.TERMS)[:30]
+    assert list(R.TERMS) == list(DEFAULT_WEIGHTS)
+    assert all(DEFAULT_WEIGHTS[k] == 0.0 for k in list(R.TERMS)[30:])
     for k, w in PAPER_TABLE_I.items():
         expected = -w if k == "body_height" else w
         assert DEFAULT_WEIGHTS[k] == expected, k
@@ -137,3 +138,41 @@ def test_body_height_and_power():
     assert R.joint_power(e)[1] == pytest.approx(200.0)
     e.base_lin_vel[1, 0] = 0.0                                  # standing still: the floor bounds it
     assert R.joint_power(e)[1] == pytest.approx(200.0 / e.cfg.rewards.power_floor)
+
+
+def _swing_state(signals, lift):
+    """Robot at default_q plus ``lift`` x the swing profile on the left leg; clock signals (s, c) given."""
+    e = state(n=1)
+    legs = [ADAM_LITE.joint_ids(leg) for leg in ADAM_LITE.swing_joints]
+    e.swing_joints, e.swing_profile = torch.tensor(legs), torch.tensor(ADAM_LITE.swing_profile)
+    e.joint_pos[0, legs[0]] += lift * e.swing_profile
+    e.clock = SimpleNamespace(cfg=LocoConfig().gait, signals=torch.tensor([signals]))
+    return e
+
+
+def test_swing_reference_rewards_lifting_the_leg_the_clock_has_in_swing():
+    a = LocoConfig().rewards.swing_amplitude
+    # both legs in stance (signals above gamma): the default pose is the reference
+    assert R.swing_reference(_swing_state((0.5, 0.5), 0.0)).item() == pytest.approx(1.0)
+    assert R.swing_reference(_swing_state((0.5, 0.5), a)).item() < 0.6
+    # left leg mid-swing (s = -1): lifting it by the amplitude is the reference, standing is not
+    assert R.swing_reference(_swing_state((-1.0, 1.0), a)).item() == pytest.approx(1.0)
+    assert R.swing_reference(_swing_state((-1.0, 1.0), 0.0)).item() < 0.6
+    # half-way into the swing, half the lift scores best
+    half = R.swing_reference(_swing_state((-0.55, 1.0), a / 2)).item()
+    assert half == pytest.approx(1.0, abs=1e-5)
+    assert R.swing_reference(_swing_state((-0.55, 1.0), a)).item() < 0.8
+
+
+def test_the_swing_profile_lifts_the_foot_and_keeps_the_sole_level():
+    from cra_warp.kinematics import Kinematics
+
+    kin, a = Kinematics(ADAM_LITE), LocoConfig().rewards.swing_amplitude
+    q = torch.tensor(ADAM_LITE.default_q).repeat(2, 1)
+    q[1, ADAM_LITE.joint_ids(ADAM_LITE.swing_joints[0])] += a * torch.tensor(ADAM_LITE.swing_profile)
+    f = kin.feet(torch.zeros(2, 3), torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(2, 1), q)
+    lift = f.sole_centres[1, 0, 2] - f.sole_centres[0, 0, 2]
+    assert 0.06 < lift.item() < 0.12                                          # about the clearance target, 8 cm
+    assert torch.allclose(f.sole_centres[1, 1], f.sole_centres[0, 1])         # the other foot does not move
+    tilt = (f.sole_corners[1, 0, :, 2].max() - f.sole_corners[1, 0, :, 2].min()).item()
+    assert tilt < 0.03                                                        # over a ~25 cm sole: < 7 deg

@@ -74,6 +74,10 @@ ADAM_LITE = RobotConfig(
     hip_joints=("hipRoll_Left", "hipYaw_Left", "hipRoll_Right", "hipYaw_Right"),
     waist_joints=("waistRoll", "waistPitch", "waistYaw"),
     torso_link="torso",
+    # hip -A, knee +2A, ankle -A: the sole rises (9 cm at A = 0.25, pytorch-kinematics) and stays nearly level
+    swing_joints=tuple(tuple(f"{j}_{side}" for j in ("hipPitch", "kneePitch", "anklePitch"))
+                       for side in ("Left", "Right")),
+    swing_profile=(-1.0, 2.0, -1.0),
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
     # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
     # ankle pitch kd dt / I = 3.5 x 0.005 / (0.0043 + 0.01) = 1.2 with it, 4.1 without (explicit damping diverges
