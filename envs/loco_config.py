@@ -83,7 +83,12 @@ class RewardConfig:
     contact_threshold: float = 5.0                   # [N] a foot with more vertical force is in contact
     power_floor: float = 0.1                         # keeps the joint-power ratio finite for a standing robot
     only_positive_rewards: bool = True               # clip the summed reward at 0 (see the module docstring)
-    # Added to the (clipped) step reward of a robot that falls; not a Table I term (the paper gives none), 0 = off.
+    # Each term's step reward is w_i x r_i x dt when set: Table I's weights are rates per second in the legged_gym
+    # convention (reward scales multiplied by the policy dt), which keeps returns near 1-10, the scale that PPO's
+    # clipped value loss (clip 0.2 per update) assumes. Off: w_i x r_i per step, 50x larger at 50 Hz.
+    scale_by_dt: bool = False
+    # Added to the (clipped) step reward of a robot that falls (x dt with scale_by_dt, like the terms); not a Table I
+    # term (the paper gives none), 0 = off.
     termination_penalty: float = 0.0
     swing_amplitude: float = 0.25                    # [rad] A of swing_reference (robot's swing_profile x A)
     swing_scale: float = 0.5                         # [rad] of joint error at which swing_reference falls to 1/e

@@ -148,7 +148,7 @@ class LocoEnv(VecEnv):
         time_out = self.episode_length_buf >= self.max_episode_length
         dones = fell | time_out | nonfinite
         if cfg.rewards.termination_penalty:
-            terms["termination"] = cfg.rewards.termination_penalty * fell.float()
+            terms["termination"] = cfg.rewards.termination_penalty * self.reward_dt * fell.float()
             rew = rew + terms["termination"]
         rew = torch.where(nonfinite, 0.0, rew)  # nothing from a broken world reaches the learner
         for k, v in terms.items():
@@ -217,13 +217,18 @@ class LocoEnv(VecEnv):
         tilted = self.projected_gravity[:, 2] > self.cfg.fall_gravity_z
         return (low | tilted) & ~nonfinite, nonfinite
 
+    @property
+    def reward_dt(self) -> float:
+        """What a term's weighted value is multiplied by per step: dt when Table I's weights are rates per second."""
+        return self.dt if self.cfg.rewards.scale_by_dt else 1.0
+
     def _rewards(self):
         total = torch.zeros(self.num_envs, device=self.device)
         terms = {}
         for name, weight in self.cfg.rewards.weights.items():
             if weight == 0.0 or (getattr(TERMS[name], "needs_clock", False) and not self.cfg.uses_clock):
                 continue
-            r = weight * torch.nan_to_num(TERMS[name](self), nan=0.0, posinf=0.0, neginf=0.0)
+            r = weight * self.reward_dt * torch.nan_to_num(TERMS[name](self), nan=0.0, posinf=0.0, neginf=0.0)
             terms[name] = r
             total += r
         if self.cfg.rewards.only_positive_rewards:

@@ -229,10 +229,10 @@ def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
 
 def test_reward_sum_clips_at_zero_skips_zero_weights_and_needs_the_clock_for_the_pattern(env):
     """The step reward is the weighted sum of the terms with a non-zero weight, clipped at 0 from below when
-    only_positive_rewards is on (the default); a term with weight 0 is not computed; the clock-free variant has no
-    contact-pattern term."""
+    only_positive_rewards is on (the default), times dt with scale_by_dt; a term with weight 0 is not computed; the
+    clock-free variant has no contact-pattern term."""
     rw = env.cfg.rewards
-    saved = dict(rw.weights), rw.only_positive_rewards
+    saved = dict(rw.weights), rw.only_positive_rewards, rw.scale_by_dt
     try:
         gen = torch.Generator().manual_seed(0)
         env.step(0.3 * torch.randn(env.num_envs, env.num_actions, generator=gen).to(env.device))
@@ -248,7 +248,12 @@ def test_reward_sum_clips_at_zero_skips_zero_weights_and_needs_the_clock_for_the
         rw.only_positive_rewards = True
         clipped, _ = env._rewards()
         assert torch.allclose(clipped, raw.clamp(min=0.0), atol=1e-4)
+        rw.scale_by_dt = True                     # every term a rate per second: x dt per step
+        scaled, scaled_terms = env._rewards()
+        assert torch.allclose(scaled, env.dt * clipped, atol=1e-5)
+        assert all(torch.allclose(scaled_terms[k], env.dt * terms[k], atol=1e-5) for k in terms)
     finally:
+        rw.scale_by_dt = saved[2]
         rw.weights.clear()
         rw.weights.update(saved[0])
         rw.only_positive_rewards = saved[1]
