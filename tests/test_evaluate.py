@@ -94,8 +94,8 @@ def test_eval_rejects_bad_values(capsys, args, word):
 
 
 def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
-    """The scripted stand on flat ground: every robot stays up for the trial, and its forward-velocity tracking
-    error is the commanded speed (it does not walk); a robot that falls counts as failed."""
+    """The scripted stand on flat ground: every robot stays up for the trial, its forward-velocity tracking error
+    is the commanded speed and it never lifts a foot (it does not walk); a robot that falls counts as failed."""
     import json
 
     out = tmp_path / "flat.json"
@@ -104,6 +104,7 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     (r,) = json.loads(out.read_text())
     assert r["trial"] == "flat" and r["robots"] == 4 and r["success_rate"] == 1.0
     assert r["tracking_error"] == pytest.approx(0.4, abs=0.05)
+    assert r["touchdowns_per_s"] == 0.0 and r["single_support"] == 0.0   # it stands on both feet: no steps
 
     from envs.loco_config import DomainRandConfig, LocoConfig
     from envs.locomotion import LocoEnv
@@ -111,6 +112,43 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
     zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 10.0)
     assert zero["fall_rate"] == 1.0   # a zero action is no stand: it falls after ~3.4 s (nominal robot)
+
+
+class _AlternatingFeet:
+    """A stand-in env for flat_trial's arithmetic: 2 robots walking in place at 0.3 m/s, each foot in swing for
+    5 of every 20 steps (left first, right 10 steps later): 2 touchdowns per 0.4 s cycle, one foot down 50%."""
+
+    num_envs, device, dt, num_actions = 2, "cpu", 0.02, 1
+
+    def __init__(self):
+        self.k = 0
+        self.base_lin_vel = torch.tensor([[0.3, 0.0, 0.0]]).repeat(2, 1)
+        self.contact = torch.ones(2, 2, dtype=torch.bool)
+        self.first_contact = torch.zeros(2, 2, dtype=torch.bool)
+
+    def reset_idx(self, ids):
+        self.k = 0
+
+    def hold_commands(self, forward, heading, refresh):
+        pass
+
+    def get_observations(self):
+        return None
+
+    def step(self, actions):
+        self.k += 1
+        last = self.contact.clone()
+        phase = self.k % 20
+        self.contact = torch.tensor([[not (0 <= phase < 5), not (10 <= phase < 15)]]).repeat(2, 1)
+        self.first_contact = self.contact & ~last
+        return None, None, torch.zeros(2, dtype=torch.long), {"time_outs": torch.zeros(2, dtype=torch.bool)}
+
+
+def test_flat_trial_counts_touchdowns_and_single_support():
+    r = eval_cli.flat_trial(_AlternatingFeet(), lambda obs, dones: None, 0.5, 10.0)
+    assert r["success_rate"] == 1.0 and r["tracking_error"] == pytest.approx(0.2)
+    assert r["touchdowns_per_s"] == pytest.approx(5.0, rel=0.02)     # 2 per 20 steps of 0.02 s
+    assert r["single_support"] == pytest.approx(0.5, abs=0.01)
 
 
 def test_paper_protocol_runs_the_sweep_and_the_ablation(monkeypatch):

@@ -109,11 +109,13 @@ def evaluate(env, act, speed: float) -> Tally:
 
 
 def flat_trial(env, act, speed: float, seconds: float) -> dict:
-    """Every robot commanded (speed, 0) on flat ground, heading held at 0, for ``seconds``: fall rate and the mean
-    forward-velocity tracking error of the robots still up, after the first 2 s."""
+    """Every robot commanded (speed, 0) on flat ground, heading held at 0, for ``seconds``: fall rate, and after
+    the first 2 s over the robots still up, the mean forward-velocity tracking error and the gait: touchdowns per
+    second (both feet together) and the share of steps on one foot (a robot that stands still has neither)."""
     n, dev = env.num_envs, env.device
     fell = torch.zeros(n, dtype=torch.bool, device=dev)
     err, count = torch.zeros((), device=dev), torch.zeros((), device=dev)
+    touchdowns, single = torch.zeros((), device=dev), torch.zeros((), device=dev)
     forward = torch.tensor([speed, 0.0], device=dev).expand(n, 2)
     heading = torch.zeros(n, device=dev)
     env.reset_idx(torch.arange(n, device=dev))
@@ -125,11 +127,16 @@ def flat_trial(env, act, speed: float, seconds: float) -> dict:
             dones = d.bool()
             fell |= dones & ~extras["time_outs"]
             if (k + 1) * env.dt > 2.0:
-                up = ~fell
+                up = ~fell & ~dones  # a robot reset in this step shows its new episode's first contact
                 err += ((env.base_lin_vel[:, 0] - speed).abs() * up).sum()
+                touchdowns += (env.first_contact.sum(-1) * up).sum()
+                single += ((env.contact.sum(-1) == 1) & up).sum()
                 count += up.sum()
+    up_s = count * env.dt
     return {"fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
-            "tracking_error": float(err / count) if count > 0 else None}
+            "tracking_error": float(err / count) if count > 0 else None,
+            "touchdowns_per_s": float(touchdowns / up_s) if count > 0 else None,
+            "single_support": float(single / count) if count > 0 else None}
 
 
 def _policies(a: EvalArgs):
@@ -273,10 +280,13 @@ def print_table(records: list[dict]) -> None:
             print(f"  {m['method']:12} {m['protocol'] or '':12} {m['speed']:5.2f} m/s {where:24} "
                   f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}")
     if records and records[0].get("trial") == "flat":
-        print(f"{'policy':40} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10}")
+        print(f"{'policy':40} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10} {'steps/s':>8} "
+              f"{'one foot':>9}")
         for r in records:
-            e = "-" if r["tracking_error"] is None else f"{r['tracking_error']:.3f}"
-            print(f"{r['policy'][-40:]:40} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10}")
+            e, t, o = ("-" if r[k] is None else f"{r[k]:.{p}f}"
+                       for k, p in (("tracking_error", 3), ("touchdowns_per_s", 2), ("single_support", 2)))
+            print(f"{r['policy'][-40:]:40} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10} "
+                  f"{t:>8} {o:>9}")
         return
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
     blocks = {}
