@@ -85,7 +85,8 @@ class RewardConfig:
     only_positive_rewards: bool = True               # clip the summed reward at 0 (see the module docstring)
     # Each term's step reward is w_i x r_i x dt when set: Table I's weights are rates per second in the legged_gym
     # convention (reward scales multiplied by the policy dt), which keeps returns near 1-10, the scale that PPO's
-    # clipped value loss (clip 0.2 per update) assumes. Off: w_i x r_i per step, 50x larger at 50 Hz.
+    # clipped value loss (clip 0.2 per update) assumes. Off: w_i x r_i per step, 50x larger at 50 Hz. Off by default:
+    # on flat ground it learned within the seed spread of per-step weights (tools/results/ab_scale_by_dt).
     scale_by_dt: bool = False
     # Added to the (clipped) step reward of a robot that falls (x dt with scale_by_dt, like the terms); not a Table I
     # term (the paper gives none), 0 = off.

@@ -159,7 +159,7 @@ def contact_pattern(e: LocoEnv):       # exp(-|m_stance(t) - c_actual(t)|^2)
 contact_pattern.needs_clock = True     # the clock-free variant has no stance mask: the env skips the term
 
 
-# ---- beyond Table I (weight 0 unless a config sets one; envs/loco_config.py says which figure justified it)
+# ---- beyond Table I (weight 0 unless a run sets one; the README's learning-efficiency A/Bs say what they did)
 def swing_reference(e: LocoEnv):       # exp(-|q_swing - q_ref(clock)| / scale)
     # Dense shaping towards stepping in time with the clock: each leg's pitch joints follow a reference that lifts
     # the foot while the clock has it in swing (depth 0 at the stance threshold gamma, 1 at the swing's middle) and
