@@ -81,6 +81,11 @@ class DeployPolicy:
             self.clip_gait = float(spec["action_clip"].get("gait", 1.0))
             self.gait = spec["gait"] if self.action_dim == J + 3 else None
             self.clock_runs = spec.get("variant", "adaptive") == "adaptive"  # fixed_cycle ignores its gait actions
+            self.feedforward = float(self.gait.get("swing_feedforward", 0.0)) if self.gait else 0.0
+            if self.feedforward:
+                swing = spec["swing"]
+                self.swing_ids = np.array([[self.joint_names.index(n) for n in leg] for leg in swing["joints"]])
+                self.swing_profile = np.asarray(swing["profile"], dtype=np.float64)
             self.control_dt = float(spec["control_dt"])
             scales = spec["obs_scales"]
             self.command_scale = np.asarray(scales["command"], dtype=np.float64)
@@ -166,7 +171,15 @@ class DeployPolicy:
             rate = max(1.0 + g["alpha"] * d0, 0.0)
             self.phase = math.fmod(self.phase + rate * self.control_dt, g["cycle_time"])
         self._stepped = True
-        return self.default_q + self.action_scale * a[:J]
+        q_target = self.default_q + self.action_scale * a[:J]
+        if self.feedforward:
+            g = self.gait
+            d1, d2 = (g["beta_scale"] * a[J + 1], g["beta_scale"] * a[J + 2]) if self.clock_runs else (0.0, 0.0)
+            cyc = self.phase / g["cycle_time"]
+            sig = np.sin(2.0 * math.pi * (cyc + np.array([d1, d2 + g["psi"]])))
+            depth = np.clip((g["gamma"] - sig) / (1.0 + g["gamma"]), 0.0, 1.0)  # as cra_warp.gait.swing_depth
+            q_target[self.swing_ids] += self.feedforward * depth[:, None] * self.swing_profile
+        return q_target
 
     def step(self, command, gravity, q, qd, ang_vel) -> np.ndarray:
         """One control step: observation, network, clock; returns the joint targets [J] to hold until the next."""

@@ -4,6 +4,7 @@
     s(t) = sin(2 pi (phi / T_cycle + d1))                left leg signal
     c(t) = sin(2 pi (phi / T_cycle + d2 + psi))          right leg signal, psi = 0.5: legs half a cycle apart
     m_stance = [s >= gamma, c >= gamma]                  gamma < 0: a double-support band around the crossings
+    depth = clip((gamma - [s, c]) / (1 + gamma), 0, 1)   how deep each leg is in swing: 0 at gamma, 1 mid-swing
 
 (d0, d1, d2) are the last three action entries times beta_scale. All tensors are [N, ...] on one device.
 """
@@ -23,12 +24,19 @@ class GaitClockConfig:
     psi: float = 0.5           # right-leg offset in cycles
     gamma: float = -0.1        # stance threshold; negative = both feet in stance near the crossings
     beta_scale: float = 1.0    # scale applied to the raw gait actions
+    # [rad] Beyond the paper (its III-E: s(t) and c(t) "can be used to drive each foot's ... swing trajectory"):
+    # each leg's swing joints get swing_feedforward x depth x the robot's swing_profile added to their PD targets,
+    # so a zero action marches in place with the clock and the policy learns to balance and steer a stepping
+    # gait instead of having to discover stepping from standing (0 = off).
+    swing_feedforward: float = 0.0
 
     def __post_init__(self):
         if self.cycle_time <= 0:
             raise ValueError(f"GaitClockConfig.cycle_time must be > 0, got {self.cycle_time}")
         if not -1.0 < self.gamma < 1.0:
             raise ValueError(f"GaitClockConfig.gamma must be in (-1, 1), got {self.gamma}")
+        if self.swing_feedforward < 0:
+            raise ValueError(f"GaitClockConfig.swing_feedforward must be >= 0, got {self.swing_feedforward}")
 
 
 class GaitClock:
@@ -69,8 +77,18 @@ class GaitClock:
         """[N, 2] bool: which foot (left, right) the clock wants on the ground."""
         return self.signals >= self.cfg.gamma
 
+    @property
+    def swing_depth(self) -> torch.Tensor:
+        """[N, 2] in [0, 1]: how deep each leg (left, right) is in swing, 0 in stance, 1 at the swing's middle."""
+        return swing_depth(self.signals, self.cfg.gamma)
+
     def reset(self, env_ids: torch.Tensor, phase: torch.Tensor | None = None):
         """Restart the clock of ``env_ids`` at ``phase`` [n] seconds (default 0) with zero deltas."""
         self.phase[env_ids] = 0.0 if phase is None else phase
         self.deltas[env_ids] = 0.0
         self.signals.copy_(self._signals())
+
+
+def swing_depth(signals, gamma: float):
+    """0 where a leg signal is at or above the stance threshold gamma, rising to 1 at its minimum -1."""
+    return ((gamma - signals) / (1.0 + gamma)).clip(0.0, 1.0)

@@ -137,6 +137,9 @@ class LocoEnv(VecEnv):
         if cfg.uses_clock:
             gait = a[:, J:] if cfg.variant == "adaptive" else torch.zeros_like(a[:, J:])
             self.clock.advance(gait, self.dt)
+            if cfg.gait.swing_feedforward:
+                ff = cfg.gait.swing_feedforward * self.clock.swing_depth.unsqueeze(-1) * self.swing_profile
+                self.world.joint_target[:, self.swing_joints] += ff
         self._perturb()
         self.world.step()
 

@@ -164,8 +164,7 @@ def swing_reference(e: LocoEnv):       # exp(-|q_swing - q_ref(clock)| / scale)
     # Dense shaping towards stepping in time with the clock: each leg's pitch joints follow a reference that lifts
     # the foot while the clock has it in swing (depth 0 at the stance threshold gamma, 1 at the swing's middle) and
     # holds the default pose in stance. Table I only rewards the contact outcome, which standing half satisfies.
-    g = e.clock.cfg.gamma
-    depth = ((g - e.clock.signals) / (1.0 + g)).clamp(0.0, 1.0)                             # [N, feet]
+    depth = e.clock.swing_depth                                                             # [N, feet]
     ref = e.default_q[e.swing_joints] + e.cfg.rewards.swing_amplitude * depth.unsqueeze(-1) * e.swing_profile
     err = (e.joint_pos[:, e.swing_joints] - ref).flatten(1).norm(dim=-1)
     return torch.exp(-err / e.cfg.rewards.swing_scale)

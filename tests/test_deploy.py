@@ -27,8 +27,9 @@ def test_deploy_module_imports_no_training_stack():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def _exported(variant: str, tmp_path):
+def _exported(variant: str, tmp_path, swing_feedforward: float = 0.0):
     cfg = LocoConfig(num_envs=2, variant=variant, seed=3)
+    cfg.gait.swing_feedforward = swing_feedforward
     cfg.world.backend = "mujoco"
     cfg.obs.noise = False
     env = LocoEnv(cfg)
@@ -63,6 +64,23 @@ def test_observation_and_action_parity_with_the_env(variant, tmp_path):
         dep.apply(a[0].numpy())
         obs, _, dones, _ = env.step(a)
         assert not dones[0], "robot 0 fell during the parity run: the comparison would cross an episode"
+
+
+@pytest.mark.parametrize("variant", ["adaptive", "fixed_cycle"])
+def test_pd_target_parity_with_the_env_with_swing_feedforward(variant, tmp_path):
+    """With the clock's swing feedforward on, the deploy module's PD targets (actions plus the clock-driven swing
+    offsets, from the JSON alone) equal the env's for 20 control steps of random actions, and the offsets act."""
+    env, _, dep = _exported(variant, tmp_path, swing_feedforward=0.3)
+    assert dep.feedforward == pytest.approx(0.3)
+    gen = torch.Generator().manual_seed(2)
+    offsets = []
+    for step in range(20):
+        a = 0.5 * torch.randn(env.num_envs, env.num_actions, generator=gen)
+        q_target = dep.apply(a[0].numpy())
+        env.step(a)
+        np.testing.assert_allclose(q_target, env.joint_target[0].numpy(), atol=1e-5, err_msg=f"step {step}")
+        offsets.append(np.abs(q_target - dep.default_q - dep.action_scale * dep.clip(a[0].numpy())[:dep.num_joints]).max())
+    assert max(offsets) > 0.1, "the swing feedforward never moved a target"
 
 
 def test_torque_parity_with_the_training_actuator():

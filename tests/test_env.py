@@ -344,3 +344,25 @@ def test_difficulty_curriculum_scales_commands_and_randomisation_with_its_level(
     d.record(torch.full((n,), 10, device=dev), everyone)                     # early falls: one step down
     assert float(d.level) == 0.0
     assert float(LocoEnv(LocoConfig(num_envs=2, device=DEVICE)).difficulty.level) == 1.0  # off: the whole task
+
+
+def test_swing_feedforward_lifts_each_foot_while_the_clock_has_it_in_swing():
+    # The scripted stand's targets plus the clock's swing feedforward: within two cycles each sole rises
+    # 2 cm or more while its leg is in swing and that foot leaves the ground; without the feedforward neither does.
+    def lift(feedforward):
+        cfg = LocoConfig(num_envs=2, device=DEVICE, randomization=DomainRandConfig(enabled=False))
+        cfg.gait.swing_feedforward = feedforward
+        env = LocoEnv(cfg)
+        env.reset_idx(torch.arange(2, device=env.device))
+        height, airborne = torch.zeros(2), torch.zeros(2, dtype=torch.bool)
+        for _ in range(round(2 * cfg.gait.cycle_time / env.dt)):
+            env.step(env.stand_actions())
+            swing = env.clock.swing_depth[0] > 0.5
+            height = torch.maximum(height, torch.where(swing, env.sole_height[0], 0.0).cpu())
+            airborne |= (swing & ~env.contact[0]).cpu()
+        return height, airborne
+
+    height, airborne = lift(0.3)
+    assert (height > 0.02).all() and airborne.all(), (height, airborne)
+    height, airborne = lift(0.0)
+    assert (height < 0.01).all() and not airborne.any(), (height, airborne)

@@ -85,6 +85,21 @@ def test_config_errors_name_the_field():
         GaitClockConfig(cycle_time=0)
     with pytest.raises(ValueError, match="gamma"):
         GaitClockConfig(gamma=1.5)
+    with pytest.raises(ValueError, match="swing_feedforward"):
+        GaitClockConfig(swing_feedforward=-0.1)
+
+
+def test_swing_depth_is_zero_in_stance_and_one_mid_swing():
+    clock = GaitClock(1, GaitClockConfig(cycle_time=1.0, gamma=-0.1))
+    depths, masks = [], []
+    for _ in range(50):
+        clock.advance(torch.zeros(1, 3), 0.02)
+        depths.append(clock.swing_depth[0].clone())
+        masks.append(clock.stance_mask[0].clone())
+    depth, stance = torch.stack(depths), torch.stack(masks)
+    assert (depth[stance] == 0).all() and (depth[~stance] > 0).all()
+    assert depth.max() == pytest.approx(1.0, abs=0.01)         # the signal reaches -1 once per cycle
+    assert ((depth[:, 0] > 0) & (depth[:, 1] > 0)).sum() == 0  # psi 0.5, gamma < 0: never both legs in swing
 
 
 def test_phase_observation_tells_phases_apart_that_the_leg_signals_do_not():

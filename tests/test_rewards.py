@@ -5,6 +5,7 @@ from types import SimpleNamespace
 import pytest
 import torch
 
+from cra_warp.gait import swing_depth
 from envs import rewards as R
 from envs.loco_config import DEFAULT_WEIGHTS, TABLE_I_TERMS, LocoConfig
 from robots.adam_lite import ADAM_LITE
@@ -146,7 +147,8 @@ def _swing_state(signals, lift):
     legs = [ADAM_LITE.joint_ids(leg) for leg in ADAM_LITE.swing_joints]
     e.swing_joints, e.swing_profile = torch.tensor(legs), torch.tensor(ADAM_LITE.swing_profile)
     e.joint_pos[0, legs[0]] += lift * e.swing_profile
-    e.clock = SimpleNamespace(cfg=LocoConfig().gait, signals=torch.tensor([signals]))
+    gamma = LocoConfig().gait.gamma
+    e.clock = SimpleNamespace(swing_depth=swing_depth(torch.tensor([signals]), gamma))
     return e
 
 

@@ -66,6 +66,12 @@ def deploy_metadata(env) -> dict:
                              "should carry it)",
         },
         "gait": gait,
+        **({"swing": {"joints": [list(leg) for leg in robot.swing_joints], "profile": list(robot.swing_profile),
+                      "feedforward": ("if gait.swing_feedforward > 0: after the clock advances, leg i's joints get "
+                                      "swing_feedforward x depth_i x profile added to their q_target, depth_i = "
+                                      "clip((gamma - sig_i) / (1 + gamma), 0, 1), sig = (sin 2 pi (phi / cycle_time "
+                                      "+ d1), sin 2 pi (phi / cycle_time + d2 + psi)) for (left, right)")}}
+           if cfg.uses_clock and robot.swing_joints else {}),
         "control_dt": env.dt,
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,
                        "yaw_rate_filter_tau": o.yaw_rate_filter_tau},
