@@ -18,6 +18,14 @@ def test_tally_success_needs_reaching_before_any_fall():
     assert t.fell.tolist() == [True, False, False, False]
 
 
+def test_short_names_tell_seed_runs_apart():
+    runs = ["a/ff_s1/flat_ours_1/model_859.pt", "a/none_s1/flat_ours_1/model_859.pt", "b/model_9.pt"]
+    names = eval_cli.short_names(runs)
+    assert names == {runs[0]: "ff_s1/flat_ours_1/model_859.pt", runs[1]: "none_s1/flat_ours_1/model_859.pt",
+                     runs[2]: "b/model_9.pt"}
+    assert eval_cli.short_names(["x/m.pt", "x/m.pt"]) == {"x/m.pt": "m.pt"}
+
+
 @pytest.fixture(scope="module")
 def course_env():
     """One robot per level on the stair ascent and the slope descent of the evaluation course."""

@@ -269,6 +269,17 @@ def _run(a: EvalArgs) -> list[dict]:
     return records
 
 
+def short_names(policies: list[str]) -> dict[str, str]:
+    """Each policy path's shortest tail of path components that no other policy shares (seed runs of one setup
+    differ only far up their paths, so a fixed-width tail would print them alike)."""
+    parts = {p: p.split("/") for p in dict.fromkeys(policies)}
+    for k in range(1, max(map(len, parts.values()), default=0) + 1):
+        names = {p: "/".join(v[-k:]) for p, v in parts.items()}
+        if len(set(names.values())) == len(names):
+            return names
+    return {p: p for p in parts}
+
+
 def print_table(records: list[dict]) -> None:
     """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top (the flat
     trial: one row per policy and speed)."""
@@ -280,12 +291,14 @@ def print_table(records: list[dict]) -> None:
             print(f"  {m['method']:12} {m['protocol'] or '':12} {m['speed']:5.2f} m/s {where:24} "
                   f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}")
     if records and records[0].get("trial") == "flat":
-        print(f"{'policy':40} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10} {'steps/s':>8} "
+        names = short_names([r["policy"] for r in records])
+        w = max(len("policy"), *map(len, names.values()))
+        print(f"{'policy':{w}} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10} {'steps/s':>8} "
               f"{'one foot':>9}")
         for r in records:
             e, t, o = ("-" if r[k] is None else f"{r[k]:.{p}f}"
                        for k, p in (("tracking_error", 3), ("touchdowns_per_s", 2), ("single_support", 2)))
-            print(f"{r['policy'][-40:]:40} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10} "
+            print(f"{names[r['policy']]:{w}} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10} "
                   f"{t:>8} {o:>9}")
         return
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
