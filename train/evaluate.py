@@ -277,7 +277,7 @@ def short_names(policies: list[str]) -> dict[str, str]:
         names = {p: "/".join(v[-k:]) for p, v in parts.items()}
         if len(set(names.values())) == len(names):
             return names
-    return {p: p for p in parts}
+    return {}   # no policies (for any others the whole paths, k = the longest, already differ)
 
 
 def print_table(records: list[dict]) -> None:
