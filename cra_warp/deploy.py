@@ -82,7 +82,8 @@ class DeployPolicy:
             self.gait = spec["gait"] if self.action_dim == J + 3 else None
             self.clock_runs = spec.get("variant", "adaptive") == "adaptive"  # fixed_cycle ignores its gait actions
             self.feedforward = float(self.gait.get("swing_feedforward", 0.0)) if self.gait else 0.0
-            if self.feedforward:
+            self.stride = float(self.gait.get("stride_feedforward", 0.0)) if self.gait else 0.0
+            if self.feedforward or self.stride:
                 swing = spec["swing"]
                 self.swing_ids = np.array([[self.joint_names.index(n) for n in leg] for leg in swing["joints"]])
                 self.swing_profile = np.asarray(swing["profile"], dtype=np.float64)
@@ -116,6 +117,7 @@ class DeployPolicy:
         self.phase = 0.0                                   # phi [s]
         self.prev_action = np.zeros(self.action_dim)
         self.avg_yaw_rate = 0.0
+        self.command = np.zeros(3)                         # the last observed command (the stride follows it)
         self._stepped = False                              # an action was applied since the last observation
 
     def observe(self, command, gravity, q, qd, ang_vel) -> np.ndarray:
@@ -124,8 +126,9 @@ class DeployPolicy:
         if self._stepped:  # the filter runs after every control step's physics, on the new reading
             self.avg_yaw_rate += self.yaw_filter * (ang_vel[2] - self.avg_yaw_rate)
             self._stepped = False
+        self.command = np.asarray(command, dtype=np.float64)
         parts = {
-            "command": np.asarray(command, dtype=np.float64) * self.command_scale,
+            "command": self.command * self.command_scale,
             "gravity": np.asarray(gravity, dtype=np.float64),
             "joint_pos": np.asarray(q, dtype=np.float64) - self.default_q,
             "joint_vel": np.asarray(qd, dtype=np.float64) * self.joint_vel_scale,
@@ -172,13 +175,13 @@ class DeployPolicy:
             self.phase = math.fmod(self.phase + rate * self.control_dt, g["cycle_time"])
         self._stepped = True
         q_target = self.default_q + self.action_scale * a[:J]
-        if self.feedforward:
+        if self.feedforward or self.stride:
             g = self.gait
             d1, d2 = (g["beta_scale"] * a[J + 1], g["beta_scale"] * a[J + 2]) if self.clock_runs else (0.0, 0.0)
-            cyc = self.phase / g["cycle_time"]
-            sig = np.sin(2.0 * math.pi * (cyc + np.array([d1, d2 + g["psi"]])))
-            depth = np.clip((g["gamma"] - sig) / (1.0 + g["gamma"]), 0.0, 1.0)  # as cra_warp.gait.swing_depth
+            angle = 2.0 * math.pi * (self.phase / g["cycle_time"] + np.array([d1, d2 + g["psi"]]))
+            depth = np.clip((g["gamma"] - np.sin(angle)) / (1.0 + g["gamma"]), 0.0, 1.0)  # as cra_warp.gait.swing_depth
             q_target[self.swing_ids] += self.feedforward * depth[:, None] * self.swing_profile
+            q_target[self.swing_ids[:, 0]] += self.swing_profile[0] * self.stride * self.command[0] * np.cos(angle)
         return q_target
 
     def step(self, command, gravity, q, qd, ang_vel) -> np.ndarray:

@@ -29,6 +29,12 @@ class GaitClockConfig:
     # so a zero action marches in place with the clock and the policy learns to balance and steer a stepping
     # gait instead of having to discover stepping from standing (0 = off).
     swing_feedforward: float = 0.0
+    # [rad per m/s] Beyond the paper, a stride for the forward command: each leg's hip pitch gets
+    # stride_feedforward x v_cmd_x x cos(leg angle) towards the front, so the thigh is furthest forward where the clock
+    # puts the foot down (s rising through 0) and furthest back where it lifts it, and sweeps back through stance. A
+    # zero action then walks forward at roughly the command (0.25: 2 x 0.25 x v over half a 0.8 s cycle on a ~0.8 m
+    # leg) instead of marching in place (0 = off).
+    stride_feedforward: float = 0.0
 
     def __post_init__(self):
         if self.cycle_time <= 0:
@@ -37,6 +43,8 @@ class GaitClockConfig:
             raise ValueError(f"GaitClockConfig.gamma must be in (-1, 1), got {self.gamma}")
         if self.swing_feedforward < 0:
             raise ValueError(f"GaitClockConfig.swing_feedforward must be >= 0, got {self.swing_feedforward}")
+        if self.stride_feedforward < 0:
+            raise ValueError(f"GaitClockConfig.stride_feedforward must be >= 0, got {self.stride_feedforward}")
 
 
 class GaitClock:
@@ -48,10 +56,15 @@ class GaitClock:
         self.deltas = torch.zeros(num_envs, 3, device=device)        # last scaled (d0, d1, d2) [N, 3]
         self.signals = self._signals()                               # (s, c) [N, 2]
 
-    def _signals(self) -> torch.Tensor:
+    @property
+    def leg_angles(self) -> torch.Tensor:
+        """[N, 2] 2 pi (phi / T_cycle + d1) and 2 pi (phi / T_cycle + d2 + psi): the legs' (s, c) = sin of these."""
         cyc = self.phase / self.cfg.cycle_time
         offsets = torch.stack([self.deltas[:, 1], self.deltas[:, 2] + self.cfg.psi], 1)
-        return torch.sin(2.0 * math.pi * (cyc.unsqueeze(1) + offsets))
+        return 2.0 * math.pi * (cyc.unsqueeze(1) + offsets)
+
+    def _signals(self) -> torch.Tensor:
+        return torch.sin(self.leg_angles)
 
     def advance(self, gait_actions: torch.Tensor, dt: float) -> torch.Tensor:
         """phi += (1 + alpha d0) dt with d = beta_scale * gait_actions [N, 3]; returns (s, c) [N, 2] (the clock's

@@ -140,6 +140,10 @@ class LocoEnv(VecEnv):
             if cfg.gait.swing_feedforward:
                 ff = cfg.gait.swing_feedforward * self.clock.swing_depth.unsqueeze(-1) * self.swing_profile
                 self.world.joint_target[:, self.swing_joints] += ff
+            if cfg.gait.stride_feedforward:
+                # the swing profile's hip entry is the sign that brings the thigh forward
+                stride = cfg.gait.stride_feedforward * self.commands[:, :1] * torch.cos(self.clock.leg_angles)
+                self.world.joint_target[:, self.swing_joints[:, 0]] += self.swing_profile[0] * stride
         self._perturb()
         self.world.step()
 

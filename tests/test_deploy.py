@@ -27,9 +27,10 @@ def test_deploy_module_imports_no_training_stack():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def _exported(variant: str, tmp_path, swing_feedforward: float = 0.0):
+def _exported(variant: str, tmp_path, swing_feedforward: float = 0.0, stride_feedforward: float = 0.0):
     cfg = LocoConfig(num_envs=2, variant=variant, seed=3)
     cfg.gait.swing_feedforward = swing_feedforward
+    cfg.gait.stride_feedforward = stride_feedforward
     cfg.world.backend = "mujoco"
     cfg.obs.noise = False
     env = LocoEnv(cfg)
@@ -67,15 +68,18 @@ def test_observation_and_action_parity_with_the_env(variant, tmp_path):
 
 
 @pytest.mark.parametrize("variant", ["adaptive", "fixed_cycle"])
-def test_pd_target_parity_with_the_env_with_swing_feedforward(variant, tmp_path):
-    """With the clock's swing feedforward on, the deploy module's PD targets (actions plus the clock-driven swing
-    offsets, from the JSON alone) equal the env's for 20 control steps of random actions, and the offsets act."""
-    env, _, dep = _exported(variant, tmp_path, swing_feedforward=0.3)
-    assert dep.feedforward == pytest.approx(0.3)
+def test_pd_target_parity_with_the_env_with_swing_and_stride_feedforward(variant, tmp_path):
+    """With the clock's swing and stride feedforward on, the deploy module's PD targets (actions plus the
+    clock-driven offsets, from the JSON and the observed command alone) equal the env's for 20 control steps of
+    random actions, and the offsets act."""
+    env, _, dep = _exported(variant, tmp_path, swing_feedforward=0.3, stride_feedforward=0.25)
+    assert dep.feedforward == pytest.approx(0.3) and dep.stride == pytest.approx(0.25)
     gen = torch.Generator().manual_seed(2)
     offsets = []
     for step in range(20):
         a = 0.5 * torch.randn(env.num_envs, env.num_actions, generator=gen)
+        dep.observe(*[r[0].numpy() for r in (env.commands, env.projected_gravity, env.joint_pos, env.joint_vel,
+                                             env.base_ang_vel)])
         q_target = dep.apply(a[0].numpy())
         env.step(a)
         np.testing.assert_allclose(q_target, env.joint_target[0].numpy(), atol=1e-5, err_msg=f"step {step}")

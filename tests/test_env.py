@@ -366,3 +366,37 @@ def test_swing_feedforward_lifts_each_foot_while_the_clock_has_it_in_swing():
     assert (height > 0.02).all() and airborne.all(), (height, airborne)
     height, airborne = lift(0.0)
     assert (height < 0.01).all() and not airborne.any(), (height, airborne)
+
+
+def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
+    # The PD targets of a zero action under a 0.5 m/s forward command, through forward kinematics in the pelvis
+    # frame: where the clock puts a foot down (its leg signal rising through 0) the target sole is ahead of where
+    # it lifts it (falling through 0) by about a step (2 x 0.25 x 0.5 rad on a ~0.8 m leg); backwards for a
+    # backward command; no stride without a command.
+    from cra_warp.kinematics import Kinematics
+
+    def stride(v):
+        cfg = LocoConfig(num_envs=1, device=DEVICE, randomization=DomainRandConfig(enabled=False))
+        cfg.gait.stride_feedforward = 0.25
+        env = LocoEnv(cfg)
+        env.reset_idx(torch.arange(1, device=env.device))
+        env.hold_commands(torch.tensor([[v, 0.0]], device=env.device), torch.zeros(1, device=env.device))
+        kin, targets, signals = Kinematics(ADAM_LITE), [], []
+        for _ in range(round(cfg.gait.cycle_time / env.dt) + 1):
+            env.step(torch.zeros(1, env.num_actions, device=env.device))
+            targets.append(env.world.joint_target[0].cpu().clone())
+            signals.append(env.clock.signals[0].cpu().clone())
+        sig = torch.stack(signals)
+        q = torch.stack(targets)
+        x = kin.feet(torch.zeros(len(q), 3), torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(len(q), 1), q).sole_centres[..., 0]
+        out = []
+        for leg in range(2):
+            s = sig[:, leg]
+            down = int(torch.argmin(torch.where(s[1:] > s[:-1], s[1:].abs(), 9.0))) + 1   # rising through 0
+            up = int(torch.argmin(torch.where(s[1:] < s[:-1], s[1:].abs(), 9.0))) + 1     # falling through 0
+            out.append((x[down, leg] - x[up, leg]).item())
+        return out
+
+    assert all(0.1 < d < 0.35 for d in stride(0.5)), stride(0.5)
+    assert all(-0.35 < d < -0.1 for d in stride(-0.5))
+    assert all(abs(d) < 0.01 for d in stride(0.0))

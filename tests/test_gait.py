@@ -87,6 +87,8 @@ def test_config_errors_name_the_field():
         GaitClockConfig(gamma=1.5)
     with pytest.raises(ValueError, match="swing_feedforward"):
         GaitClockConfig(swing_feedforward=-0.1)
+    with pytest.raises(ValueError, match="stride_feedforward"):
+        GaitClockConfig(stride_feedforward=-0.1)
 
 
 def test_swing_depth_is_zero_in_stance_and_one_mid_swing():

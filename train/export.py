@@ -70,7 +70,10 @@ def deploy_metadata(env) -> dict:
                       "feedforward": ("if gait.swing_feedforward > 0: after the clock advances, leg i's joints get "
                                       "swing_feedforward x depth_i x profile added to their q_target, depth_i = "
                                       "clip((gamma - sig_i) / (1 + gamma), 0, 1), sig = (sin 2 pi (phi / cycle_time "
-                                      "+ d1), sin 2 pi (phi / cycle_time + d2 + psi)) for (left, right)")}}
+                                      "+ d1), sin 2 pi (phi / cycle_time + d2 + psi)) for (left, right)"),
+                      "stride": ("if gait.stride_feedforward > 0: leg i's first joint (hip pitch) also gets profile[0] "
+                                 "x stride_feedforward x command vx x cos of sig_i's angle, the command as observed "
+                                 "this control step")}}
            if cfg.uses_clock and robot.swing_joints else {}),
         "control_dt": env.dt,
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,
