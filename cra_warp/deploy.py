@@ -179,7 +179,7 @@ class DeployPolicy:
             g = self.gait
             d1, d2 = (g["beta_scale"] * a[J + 1], g["beta_scale"] * a[J + 2]) if self.clock_runs else (0.0, 0.0)
             angle = 2.0 * math.pi * (self.phase / g["cycle_time"] + np.array([d1, d2 + g["psi"]]))
-            depth = np.clip((g["gamma"] - np.sin(angle)) / (1.0 + g["gamma"]), 0.0, 1.0)  # as cra_warp.gait.swing_depth
+            depth = np.clip((g["gamma"] - np.sin(angle)) / (1.0 + g["gamma"]), 0.0, 1.0)  # as gait.swing_depth
             q_target[self.swing_ids] += self.feedforward * depth[:, None] * self.swing_profile
             q_target[self.swing_ids[:, 0]] += self.swing_profile[0] * self.stride * self.command[0] * np.cos(angle)
         return q_target

@@ -32,8 +32,8 @@ class GaitClockConfig:
     # [rad per m/s] Beyond the paper, a stride for the forward command: each leg's hip pitch gets
     # stride_feedforward x v_cmd_x x cos(leg angle) towards the front, so the thigh is furthest forward where the clock
     # puts the foot down (s rising through 0) and furthest back where it lifts it, and sweeps back through stance. A
-    # zero action then walks forward at roughly the command (0.25: 2 x 0.25 x v over half a 0.8 s cycle on a ~0.8 m
-    # leg) instead of marching in place (0 = off).
+    # zero action's stance then sweeps about the stride the command needs (0.25: 2 x 0.25 x v rad over half a 0.8 s
+    # cycle on a ~0.8 m leg), so the policy starts from a forward gait rather than a march in place (0 = off).
     stride_feedforward: float = 0.0
 
     def __post_init__(self):
