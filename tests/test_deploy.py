@@ -83,7 +83,8 @@ def test_pd_target_parity_with_the_env_with_swing_and_stride_feedforward(variant
         q_target = dep.apply(a[0].numpy())
         env.step(a)
         np.testing.assert_allclose(q_target, env.joint_target[0].numpy(), atol=1e-5, err_msg=f"step {step}")
-        offsets.append(np.abs(q_target - dep.default_q - dep.action_scale * dep.clip(a[0].numpy())[:dep.num_joints]).max())
+        commanded = dep.default_q + dep.action_scale * dep.clip(a[0].numpy())[:dep.num_joints]
+        offsets.append(np.abs(q_target - commanded).max())
     assert max(offsets) > 0.1, "the swing feedforward never moved a target"
 
 

@@ -388,7 +388,8 @@ def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
             signals.append(env.clock.signals[0].cpu().clone())
         sig = torch.stack(signals)
         q = torch.stack(targets)
-        x = kin.feet(torch.zeros(len(q), 3), torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(len(q), 1), q).sole_centres[..., 0]
+        upright = torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(len(q), 1)
+        x = kin.feet(torch.zeros(len(q), 3), upright, q).sole_centres[..., 0]
         out = []
         for leg in range(2):
             s = sig[:, leg]
