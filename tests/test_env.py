@@ -398,6 +398,7 @@ def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
             out.append((x[down, leg] - x[up, leg]).item())
         return out
 
-    assert all(0.1 < d < 0.35 for d in stride(0.5)), stride(0.5)
-    assert all(-0.35 < d < -0.1 for d in stride(-0.5))
-    assert all(abs(d) < 0.01 for d in stride(0.0))
+    forward, backward, still = stride(0.5), stride(-0.5), stride(0.0)
+    assert all(0.1 < d < 0.35 for d in forward), forward
+    assert all(-0.35 < d < -0.1 for d in backward), backward
+    assert all(abs(d) < 0.01 for d in still), still
