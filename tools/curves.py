@@ -3,11 +3,13 @@
     cra-curves fp32=runs/ab/fp32-s1,runs/ab/fp32-s2 bf16=runs/ab/bf16-s1,runs/ab/bf16-s2 --out ab.png --json ab.json
 
 Each ARM=DIR[,DIR...] names one arm and its runs (one per seed; a run directory is searched for TensorBoard event
-files). Per arm the figure draws every seed thin and the seed mean thick, one panel per tag (default: mean reward
-and mean episode length per iteration). The JSON holds the curves and, per tag, each arm's mean over the last
-``--last`` iterations (of those up to ``--upto``: a longer campaign can serve as one seed of an arm) with its
-seed-to-seed spread (max - min of the per-seed means), and whether the arms' means differ by less than the larger
-spread ("within_spread"): the test the speed work states for "learning unchanged".
+files). An entry FILE.json#NAME instead takes the runs of arm NAME from a JSON this tool wrote before, so an arm
+measured once serves later A/Bs on the same seeds and budget without a rerun. Per arm the figure draws every seed thin
+and the seed mean thick, one panel per tag (default: mean reward and mean episode length per iteration). The JSON
+holds the curves and, per tag, each arm's mean over the last ``--last`` iterations (of those up to ``--upto``: a
+longer campaign can serve as one seed of an arm) with its seed-to-seed spread (max - min of the per-seed means), and
+whether the arms' means differ by less than the larger spread ("within_spread"): the test the speed work states for
+"learning unchanged".
 """
 
 from __future__ import annotations
@@ -83,20 +85,35 @@ def plot(arms: dict[str, list[dict]], tags: tuple[str, ...], path: Path, title: 
     plt.close(fig)
 
 
-def parse_arm(text: str) -> tuple[str, list[Path]]:
+def read_stored_arm(source: str, tags: tuple[str, ...], upto: int | None = None) -> list[dict]:
+    """The runs of one arm from a JSON cra-curves wrote: ``FILE.json#ARM``."""
+    import json
+
+    file, arm = source.rsplit("#", 1)
+    runs = json.loads(Path(file).read_text()).get("arms", {}).get(arm)
+    if not runs:
+        raise ValueError(f"{source}: no arm {arm!r} in {file}")
+    missing = [t for t in tags if t not in runs[0]]
+    if missing:
+        raise ValueError(f"{source}: no values for {', '.join(missing)}")
+    return [{t: [(i, v) for i, v in r[t] if upto is None or i <= upto] for t in tags} for r in runs]
+
+
+def parse_arm(text: str) -> tuple[str, list[str]]:
     if "=" not in text:
         raise ValueError(f"arm {text!r}: expected NAME=DIR[,DIR...]")
     name, dirs = text.split("=", 1)
-    paths = [Path(d) for d in dirs.split(",") if d]
-    missing = [str(p) for p in paths if not p.is_dir()]
-    if not name or not paths or missing:
-        raise ValueError(f"arm {text!r}: {'no such directory ' + ', '.join(missing) if missing else 'empty'}")
-    return name, paths
+    sources = [d for d in dirs.split(",") if d]
+    missing = [d for d in sources if not (Path(d.rsplit("#", 1)[0]).is_file() if "#" in d else Path(d).is_dir())]
+    if not name or not sources or missing:
+        raise ValueError(f"arm {text!r}: {'no such directory or file ' + ', '.join(missing) if missing else 'empty'}")
+    return name, sources
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="cra-curves", description=__doc__.split("\n\n")[0])
-    p.add_argument("arms", nargs="+", help="NAME=DIR[,DIR...] (one run directory per seed)")
+    p.add_argument("arms", nargs="+",
+                   help="NAME=DIR[,DIR...] (one run directory per seed, or FILE.json#ARM: a stored arm)")
     p.add_argument("--tags", nargs="+", default=list(TAGS), help="TensorBoard scalar tags, one panel each")
     p.add_argument("--last", type=int, default=10, help="iterations averaged for the summary")
     p.add_argument("--upto", type=int, help="only iterations up to this one (a longer run as one seed of an arm)")
@@ -110,10 +127,13 @@ def main(argv: list[str] | None = None) -> int:
         tags = tuple(a.tags)
         arms = {}
         for text in a.arms:
-            name, paths = parse_arm(text)
+            name, sources = parse_arm(text)
             arms[name] = []
-            for d in paths:
-                r = read_scalars(d, tags, a.upto)
+            for d in sources:
+                if "#" in d:
+                    arms[name] += read_stored_arm(d, tags, a.upto)
+                    continue
+                r = read_scalars(Path(d), tags, a.upto)
                 empty = [t for t in tags if not r[t]]
                 if empty:
                     raise ValueError(f"{d}: no values for {', '.join(empty)}")
