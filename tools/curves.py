@@ -23,7 +23,8 @@ from cra_warp.atomic_json import write_json
 TAGS = ("Train/mean_reward", "Train/mean_episode_length")
 
 
-def read_scalars(run: Path | str, tags: tuple[str, ...], upto: int | None = None) -> dict[str, list[tuple[int, float]]]:
+def read_scalars(run: Path | str, tags: tuple[str, ...],
+                 upto: int | None = None) -> dict[str, list[tuple[int, float]]]:
     """{tag: [(iteration, value), ...]} from the TensorBoard event files under ``run``, iterations <= ``upto``."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
