@@ -291,6 +291,15 @@ def test_resume_from_a_directory_takes_its_newest_checkpoint(tmp_path):
     assert train_cli.newest_checkpoint(tmp_path) == tmp_path / "a" / "model_100.pt"
 
 
+def test_runs_started_in_the_same_second_get_their_own_directories(tmp_path):
+    base = tmp_path / "flat_ours_20261203-090334"
+    assert train_cli.unused_dir(base) == base
+    base.mkdir()
+    assert train_cli.unused_dir(base) == tmp_path / "flat_ours_20261203-090334-2"
+    (tmp_path / "flat_ours_20261203-090334-2").mkdir()
+    assert train_cli.unused_dir(base) == tmp_path / "flat_ours_20261203-090334-3"
+
+
 def test_resume_keeps_the_difficulty_level(tmp_path):
     """A run with the difficulty curriculum stores its level in every checkpoint; --resume continues from it (the
     resumed iteration may move it by one step), not from the configured start."""

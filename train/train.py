@@ -145,6 +145,14 @@ def seed_everything(seed: int) -> None:
     torch.manual_seed(seed)
 
 
+def unused_dir(path: Path) -> Path:
+    """path, or path-2, path-3, ...: two runs started in the same second into one log dir must not share a run."""
+    n = 1
+    while (candidate := path if n == 1 else path.with_name(f"{path.name}-{n}")).exists():
+        n += 1
+    return candidate
+
+
 def run(a: TrainArgs):
     """Train as the arguments say; returns (run directory, runner)."""
     import torch
@@ -193,7 +201,7 @@ def run(a: TrainArgs):
             learner = with_overrides(learner, learner_over)
         except (ValueError, TypeError) as e:
             raise UsageError(f"--override: learner.{e}") from e
-    run_dir = a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}"
+    run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")
     config = run_config(a, env, env_cfg, learner)
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
                        quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
