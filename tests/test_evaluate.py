@@ -96,6 +96,11 @@ def test_eval_terrain_needs_whole_levels():
     (["--agent-stand", "--device", "tpu"], "--device"),
     (["--agent-stand", "--trial", "hills"], "--trial"),
     (["--agent-stand", "--trial", "flat", "--seconds", "1"], "--seconds"),
+    (["--agent-stand", "--lateral", "0.2"], "flat trial"),
+    (["--agent-stand", "--trial", "flat", "--yaw-rates", "0"], "--yaw-rates"),
+    (["--agent-stand", "--trial", "flat", "--yaw-rates", "0.3", "--turn-speed", "0"], "--turn-speed"),
+    (["--agent-stand", "--trial", "flat", "--robots", "2", "--seconds", "2.1", "--yaw-rates", "3"],
+     "training range"),
 ])
 def test_eval_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, eval_cli.main(args), word)
@@ -122,6 +127,22 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     assert zero["fall_rate"] == 1.0   # a zero action is no stand: it falls after ~3.4 s (nominal robot)
 
 
+def test_flat_trial_commands_lateral_and_turning_and_a_stand_tracks_neither(tmp_path):
+    """A lateral command is scored on v_y, a turn on the yaw rate against the command in force: the scripted
+    stand, which moves nowhere, misses each by the command (and a turn is commanded at the asked rate)."""
+    import json
+
+    out = tmp_path / "flat.json"
+    assert eval_cli.main(["--agent-stand", "--trial", "flat", "--robots", "2", "--seconds", "3", "--speeds", "0.4",
+                          "--lateral", "0.2", "--yaw-rates", "-0.3", "--sim", "mujoco", "--json", str(out)]) == 0
+    fwd, side, turn = json.loads(out.read_text())
+    assert (side["speed"], side["lateral"], turn["speed"], turn["yaw_rate"]) == (0.0, 0.2, 0.3, -0.3)
+    assert side["tracking_error_y"] == pytest.approx(0.2, abs=0.05) and side["tracking_error"] < 0.05
+    assert turn["tracking_error_yaw"] == pytest.approx(0.3, abs=0.05)
+    assert fwd["tracking_error_y"] < 0.05
+    assert fwd["mean_error"] == pytest.approx(0.4, abs=0.05) and turn["mean_error_yaw"] == pytest.approx(0.3, abs=0.05)
+
+
 class _AlternatingFeet:
     """A stand-in env for flat_trial's arithmetic: 2 robots walking in place at 0.3 m/s, each foot in swing for
     5 of every 20 steps (left first, right 10 steps later): 2 touchdowns per 0.4 s cycle, one foot down 50%."""
@@ -133,12 +154,13 @@ class _AlternatingFeet:
         self.base_lin_vel = torch.tensor([[0.3, 0.0, 0.0]]).repeat(2, 1)
         self.contact = torch.ones(2, 2, dtype=torch.bool)
         self.first_contact = torch.zeros(2, 2, dtype=torch.bool)
+        self.base_ang_vel, self.commands = torch.zeros(2, 3), torch.zeros(2, 3)
 
     def reset_idx(self, ids):
         self.k = 0
 
-    def hold_commands(self, forward, heading, refresh):
-        pass
+    def hold_commands(self, lin_vel_xy, heading, refresh):
+        self.commands[:, :2] = lin_vel_xy
 
     def get_observations(self):
         return None
@@ -155,6 +177,7 @@ class _AlternatingFeet:
 def test_flat_trial_counts_touchdowns_and_single_support():
     r = eval_cli.flat_trial(_AlternatingFeet(), lambda obs, dones: None, 0.5, 10.0)
     assert r["success_rate"] == 1.0 and r["tracking_error"] == pytest.approx(0.2)
+    assert r["mean_error"] == pytest.approx(0.2, abs=1e-5) and r["tracking_error_y"] == 0.0
     assert r["touchdowns_per_s"] == pytest.approx(5.0, rel=0.02)     # 2 per 20 steps of 0.02 s
     assert r["single_support"] == pytest.approx(0.5, abs=0.01)
 

@@ -14,7 +14,10 @@ actor's observation noise stays on. --agent-stand adds a floor: the scripted sta
 the reference pose and walks nowhere (the robot's soft ankles make a zero action fall).
 The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0,
 for --seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
-the first 2 s (the start from rest).
+the first 2 s (the start from rest). --lateral adds trials commanded (0, v_y), --yaw-rates trials turning at a yaw
+rate while walking forward at --turn-speed (the training's heading controller is off for a standing command); each
+record gives the mean tracking error of v_x, v_y and the yaw rate, per step and of each robot's average over the
+trial (its gait's sway within a step averages out).
 
 The paper's protocol (IV-B), one option: --protocol paper runs (1) the speed sweep, 200 robots per level of every
 kind at each of --speeds (default 0.15 ... 1.0 m/s), and (2) the terrain ablation, 25 robots per level of the
@@ -54,6 +57,9 @@ class EvalArgs:
     trial: Literal["course", "flat"] = "course"      # the evaluation course, or the flat walking trial
     robots: int = 200                                # flat trial: robots per policy and speed
     seconds: float = 20.0                            # flat trial: its length [s]
+    lateral: tuple[float, ...] = ()                  # flat trial: also lateral commands [m/s], forward 0
+    yaw_rates: tuple[float, ...] = ()                # flat trial: also yaw-rate commands [rad/s] ...
+    turn_speed: float = 0.3                          # ... while walking forward at this speed [m/s]
     protocol: Literal["none", "paper"] = "none"      # paper: the speed sweep and the 0.15 m/s terrain ablation
     ablation_robots: int = 25                        # paper protocol: robots per level of the ablation
     csv: Path | None = None                          # write the records (and the seed means) as CSV
@@ -108,35 +114,61 @@ def evaluate(env, act, speed: float) -> Tally:
     return tally
 
 
-def flat_trial(env, act, speed: float, seconds: float) -> dict:
-    """Every robot commanded (speed, 0) on flat ground, heading held at 0, for ``seconds``: fall rate, and after
-    the first 2 s over the robots still up, the mean forward-velocity tracking error and the gait: touchdowns per
-    second (both feet together) and the share of steps on one foot (a robot that stands still has neither)."""
+def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw_rate: float = 0.0) -> dict:
+    """Every robot commanded (speed, lateral) on flat ground for ``seconds``, its heading held at 0, or with
+    ``yaw_rate`` turning at that rate (the training's heading controller, steered to a heading ahead of the robot's
+    own). Fall rate, and after the first 2 s over the robots still up: the mean tracking error of each commanded
+    quantity (v_x, v_y in the base frame, yaw rate against the command in force), the same for each robot's average
+    over the trial, then averaged over robots (the gait's sway within a step averages out of it), and the
+    gait: touchdowns per second (both feet together) and the share of steps on one foot (a robot that stands still
+    has neither)."""
     n, dev = env.num_envs, env.device
     fell = torch.zeros(n, dtype=torch.bool, device=dev)
-    err, count = torch.zeros((), device=dev), torch.zeros((), device=dev)
+    err, count = torch.zeros(3, device=dev), torch.zeros((), device=dev)
+    signed, up_steps = torch.zeros(n, 3, device=dev), torch.zeros(n, device=dev)
     touchdowns, single = torch.zeros((), device=dev), torch.zeros((), device=dev)
-    forward = torch.tensor([speed, 0.0], device=dev).expand(n, 2)
+    lin = torch.tensor([speed, lateral], device=dev).expand(n, 2)
     heading = torch.zeros(n, device=dev)
     env.reset_idx(torch.arange(n, device=dev))
     dones = torch.ones(n, dtype=torch.bool, device=dev)
     with torch.inference_mode():
         for k in range(round(seconds / env.dt)):
-            env.hold_commands(forward, heading, refresh=k == 0)
+            if yaw_rate:
+                heading = _turning_heading(env, yaw_rate)
+            env.hold_commands(lin, heading, refresh=k == 0 or bool(yaw_rate))
+            if yaw_rate and not env.cfg.commands.heading_mode:
+                env.commands[:, 2] = yaw_rate
+            commanded = env.commands[:, :3].clone()   # what this step's action was chosen for
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
             fell |= dones & ~extras["time_outs"]
             if (k + 1) * env.dt > 2.0:
                 up = ~fell & ~dones  # a robot reset in this step shows its new episode's first contact
-                err += ((env.base_lin_vel[:, 0] - speed).abs() * up).sum()
+                actual = torch.stack([env.base_lin_vel[:, 0], env.base_lin_vel[:, 1], env.base_ang_vel[:, 2]], -1)
+                err += ((actual - commanded).abs() * up[:, None]).sum(0)
+                signed += (actual - commanded) * up[:, None]
+                up_steps += up
                 touchdowns += (env.first_contact.sum(-1) * up).sum()
                 single += ((env.contact.sum(-1) == 1) & up).sum()
                 count += up.sum()
-    up_s = count * env.dt
-    return {"fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
-            "tracking_error": float(err / count) if count > 0 else None,
-            "touchdowns_per_s": float(touchdowns / up_s) if count > 0 else None,
-            "single_support": float(single / count) if count > 0 else None}
+    up_s, ok = count * env.dt, count > 0
+    counted = up_steps > 0
+    mean_err = (signed[counted] / up_steps[counted, None]).abs().mean(0).tolist() if counted.any() else [None] * 3
+    return {"lateral": lateral, "yaw_rate": yaw_rate,
+            "fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
+            "tracking_error": float(err[0] / count) if ok else None,
+            "tracking_error_y": float(err[1] / count) if ok else None,
+            "tracking_error_yaw": float(err[2] / count) if ok else None,
+            "mean_error": mean_err[0], "mean_error_y": mean_err[1], "mean_error_yaw": mean_err[2],
+            "touchdowns_per_s": float(touchdowns / up_s) if ok else None,
+            "single_support": float(single / count) if ok else None}
+
+
+def _turning_heading(env, yaw_rate: float) -> torch.Tensor:
+    """A heading the training's P-controller (rate = gain x heading error, clamped) turns towards at ``yaw_rate``."""
+    from cra_warp.rotations import yaw
+
+    return yaw(env.world.root_quat) + yaw_rate / env.cfg.commands.heading_gain
 
 
 def _policies(a: EvalArgs):
@@ -195,12 +227,14 @@ def seed_means(records: list[dict]) -> list[dict]:
     method's checkpoints (its seeds; std 0 for one)."""
     groups: dict[tuple, list[dict]] = {}
     for r in records:
-        key = (r.get("method"), r.get("protocol"), r.get("trial", "course"), r["speed"], r.get("kind"), r.get("level"))
+        key = (r.get("method"), r.get("protocol"), r.get("trial", "course"), r["speed"], r.get("lateral"),
+               r.get("yaw_rate"), r.get("kind"), r.get("level"))
         groups.setdefault(key, []).append(r)
     out = []
-    for (method, protocol, trial, speed, kind, level), rs in groups.items():
+    for (method, protocol, trial, speed, lateral, yaw_rate, kind, level), rs in groups.items():
         v = torch.tensor([r["success_rate"] for r in rs], dtype=torch.float64)
-        out.append({"method": method, "protocol": protocol, "trial": trial, "speed": speed, "kind": kind,
+        out.append({"method": method, "protocol": protocol, "trial": trial, "speed": speed, "lateral": lateral,
+                    "yaw_rate": yaw_rate, "kind": kind,
                     "level": level, "difficulty": rs[0].get("difficulty"), "seeds": len(rs),
                     "success_mean": float(v.mean()), "success_std": float(v.std(unbiased=False))})
     return out
@@ -240,13 +274,18 @@ def _run(a: EvalArgs) -> list[dict]:
     keep_freed_memory()
     if a.trial == "flat":
         records = []
+        commands = ([(v, 0.0, 0.0) for v in a.speeds] + [(0.0, v, 0.0) for v in a.lateral]
+                    + [(a.turn_speed, 0.0, w) for w in a.yaw_rates])
         for name, make in _policies(a):
-            for speed in a.speeds:
+            for vx, vy, wz in commands:
                 torch.manual_seed(a.seed)
                 env, act = make(a.robots, dict(terrain="flat", randomization=DomainRandConfig(enabled=False),
                                                episode_length_s=1e6))
-                records.append({"policy": name, "speed": speed, "trial": "flat", "robots": a.robots,
-                                "seconds": a.seconds, **flat_trial(env, act, speed, a.seconds)})
+                top = env.cfg.commands.ang_vel_yaw[1]
+                if abs(wz) > top:
+                    raise UsageError(f"--yaw-rates must be within the training range +-{top} rad/s, got {wz}")
+                records.append({"policy": name, "speed": vx, "trial": "flat", "robots": a.robots,
+                                "seconds": a.seconds, **flat_trial(env, act, vx, a.seconds, vy, wz)})
         return records
     course = EvalCourseConfig(kinds=a.kinds or EVAL_KINDS)
     num_envs = len(course.kinds) * course.num_levels * a.robots_per_level
@@ -282,7 +321,7 @@ def short_names(policies: list[str]) -> dict[str, str]:
 
 def print_table(records: list[dict]) -> None:
     """One block per (policy, speed): a row per kind, success % per level, the level's difficulty on top (the flat
-    trial: one row per policy and speed)."""
+    trial: one row per policy and command)."""
     means = [m for m in seed_means(records) if m["seeds"] > 1]
     if means:
         print(f"\nmean (std) success % over seeds: {', '.join(dict.fromkeys(m['method'] for m in means))}")
@@ -293,13 +332,17 @@ def print_table(records: list[dict]) -> None:
     if records and records[0].get("trial") == "flat":
         names = short_names([r["policy"] for r in records])
         w = max(len("policy"), *map(len, names.values()))
-        print(f"{'policy':{w}} {'speed':>6} {'robots':>7} {'success':>8} {'v_x error':>10} {'steps/s':>8} "
-              f"{'one foot':>9}")
+        cols = (("v_x err", "tracking_error", 3), ("v_y err", "tracking_error_y", 3),
+                ("yaw err", "tracking_error_yaw", 3), ("mean v_x", "mean_error", 3), ("mean v_y", "mean_error_y", 3),
+                ("mean yaw", "mean_error_yaw", 3),
+                ("steps/s", "touchdowns_per_s", 2), ("one foot", "single_support", 2))
+        print(f"{'policy':{w}} {'v_x':>5} {'v_y':>5} {'yaw':>5} {'robots':>6} {'success':>8} "
+              + " ".join(f"{c:>{max(len(c), 7)}}" for c, _, _ in cols))
         for r in records:
-            e, t, o = ("-" if r[k] is None else f"{r[k]:.{p}f}"
-                       for k, p in (("tracking_error", 3), ("touchdowns_per_s", 2), ("single_support", 2)))
-            print(f"{names[r['policy']]:{w}} {r['speed']:6.2f} {r['robots']:7d} {100 * r['success_rate']:7.1f}% {e:>10} "
-                  f"{t:>8} {o:>9}")
+            vals = ("-" if r.get(k) is None else f"{r[k]:.{p}f}" for _, k, p in cols)
+            print(f"{names[r['policy']]:{w}} {r['speed']:5.2f} {r.get('lateral', 0.0):5.2f} "
+                  f"{r.get('yaw_rate', 0.0):5.2f} {r['robots']:6d} {100 * r['success_rate']:7.1f}% "
+                  + " ".join(f"{v:>{max(len(c), 7)}}" for v, (c, _, _) in zip(vals, cols)))
         return
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
     blocks = {}
@@ -337,6 +380,13 @@ def main(argv: list[str] | None = None) -> int:
                              f"and {a.ablation_robots}")
         if a.speeds is not None and not (a.speeds and all(math.isfinite(v) and v > 0 for v in a.speeds)):
             raise UsageError(f"--speeds must be finite and > 0 m/s, got {a.speeds}")
+        if (a.lateral or a.yaw_rates) and a.trial != "flat":
+            raise UsageError("--lateral and --yaw-rates are commands of the flat trial (--trial flat)")
+        if not all(math.isfinite(v) and v != 0 for v in (*a.lateral, *a.yaw_rates)):
+            raise UsageError(f"--lateral and --yaw-rates must be finite and non-zero, got {a.lateral} {a.yaw_rates}")
+        if a.yaw_rates and not (math.isfinite(a.turn_speed) and a.turn_speed > 0):
+            raise UsageError(f"--turn-speed must be finite and > 0 m/s (turning is commanded while walking), "
+                             f"got {a.turn_speed}")
         for flag, path in (("--json", a.json), ("--csv", a.csv)):
             if path is not None and not path.parent.is_dir():
                 raise UsageError(f"{flag} {path}: no such directory {path.parent}")
