@@ -116,6 +116,26 @@ def test_export_cli(trained, tmp_path, capsys):
     one_line_error(capsys, export_cli.main([str(bad)]), str(bad))
 
 
+def test_shipped_checkpoint_is_the_actor_and_plays_like_the_full_one(trained, tmp_path):
+    """--ship: checkpoint.pt keeps the actor, iteration and run info (no critic, heads or optimizer state) and
+    config.json the run's configuration; a policy rebuilt from it acts exactly as one from the full checkpoint."""
+    from train.runner import runner_for_checkpoint
+
+    first, _ = trained
+    out = tmp_path / "ship"
+    assert export_cli.main([str(first / "model_1.pt"), "--out", str(out), "--ship"]) == 0
+    slim = torch.load(out / "checkpoint.pt", weights_only=False)
+    assert set(slim) == {"actor_state_dict", "iter", "infos"}
+    assert json.loads((out / "config.json").read_text()) == slim["infos"]["config"]
+    actions = []
+    for path in (first / "model_1.pt", out / "checkpoint.pt"):
+        runner, env = runner_for_checkpoint(path, num_envs=2, sim="mujoco")
+        obs = env.get_observations()
+        actions.append(runner.get_inference_policy()(obs))
+    assert torch.equal(actions[0], actions[1])
+    assert (out / "checkpoint.pt").stat().st_size < (first / "model_1.pt").stat().st_size / 3
+
+
 def test_play_a_trained_policy(trained, capsys):
     first, _ = trained
     assert play_cli.main([str(first / "model_1.pt"), "--num-envs", "2", "--steps", "10"]) == 0

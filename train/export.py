@@ -2,6 +2,11 @@
 
     cra-export runs/<run>/model_40.pt                  # -> runs/<run>/exported/policy.{pt,onnx,json}
     cra-export runs/<run>/model_40.pt --out deploy/
+    cra-export runs/<run>/model_900.pt --out robots/adam_lite/policies/flat_walk --ship   # a policy we ship
+
+--ship also writes checkpoint.pt, the checkpoint without what only training needs (critic, contrastive heads,
+optimizer state: cra-play, cra-eval and cra-export read it, --resume does not), and config.json, the run's resolved
+configuration.
 
 The JSON carries what a deploy program needs besides the network: the observation (layout, each term's frame,
 scale and update rule), joint order, action clips and scale, reference pose, the PD law with its gains, effort
@@ -94,10 +99,28 @@ def export_run(runner, env, out_dir: Path) -> dict:
     return export_policy(runner, out_dir, deploy_metadata(env))
 
 
+def ship_checkpoint(checkpoint: Path, out_dir: Path) -> dict:
+    """out_dir/checkpoint.pt (the actor, iteration and run info of ``checkpoint``) and out_dir/config.json."""
+    import os
+
+    import torch
+
+    from cra_warp.atomic_json import write_json
+    from cra_warp.learning.checkpoint import read_checkpoint
+
+    saved = read_checkpoint(checkpoint)
+    tmp = out_dir / "checkpoint.pt.tmp"
+    torch.save({k: saved[k] for k in ("actor_state_dict", "iter", "infos")}, tmp)
+    os.replace(tmp, out_dir / "checkpoint.pt")
+    write_json(out_dir / "config.json", (saved.get("infos") or {}).get("config"), indent=2)
+    return {"checkpoint": out_dir / "checkpoint.pt", "config": out_dir / "config.json"}
+
+
 @dataclass
 class ExportArgs:
     checkpoint: Positional[Path]       # a cra-train checkpoint (model_<it>.pt)
     out: Path | None = None            # default: <checkpoint dir>/exported
+    ship: bool = False                 # also the actor-only checkpoint.pt and config.json (see above)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,7 +131,10 @@ def main(argv: list[str] | None = None) -> int:
     try:
         a = parse_args(ExportArgs, argv, __doc__)
         runner, env = runner_for_checkpoint(a.checkpoint)
-        paths = export_run(runner, env, a.out or a.checkpoint.parent / "exported")
+        out = a.out or a.checkpoint.parent / "exported"
+        paths = export_run(runner, env, out)
+        if a.ship:
+            paths |= ship_checkpoint(a.checkpoint, out)
     except (UsageError, CheckpointError) as e:
         print(f"cra-export: {e}", file=sys.stderr)
         return 2

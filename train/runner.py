@@ -135,7 +135,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     if stored is not None:
         _check_against_today(path, stored, env)
     runner = CraRunner(env, runner_cfg(learner), log_dir=None, device=device, quiet=True, run_info=info)
-    load_checkpoint(path, runner)
+    load_checkpoint(path, runner, load_cfg={"actor": True})  # inference: a shipped, actor-only file is enough
     return runner, env
 
 
