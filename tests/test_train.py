@@ -192,6 +192,19 @@ def test_play_rejects_a_video_it_cannot_write(capsys, tmp_path):
     one_line_error(capsys, play_cli.main(["--agent", "zero", "--video", str(tmp_path / "a.mp4")]), ".gif")
 
 
+def test_play_holds_a_given_command(capsys):
+    """--command: every robot is told the same (v_x, v_y) for the whole rollout; the stand walks nowhere, so its
+    tracking error is about that speed."""
+    assert play_cli.main(["--agent", "stand", "--num-envs", "2", "--steps", "100", "--sim", "mujoco",
+                          "--command", "0.4", "0"]) == 0
+    rmse = float(next(line for line in capsys.readouterr().out.splitlines() if "vel_tracking_rmse" in line).split()[-1])
+    assert rmse == pytest.approx(0.4, abs=0.1)   # plus what the stand sways while it settles
+
+
+def test_play_rejects_a_non_finite_command(capsys):
+    one_line_error(capsys, play_cli.main(["--agent", "stand", "--command", "nan", "0"]), "--command")
+
+
 def test_play_rejects_missing_checkpoint(capsys):
     one_line_error(capsys, play_cli.main(["--agent", "policy"]), "checkpoint")
 

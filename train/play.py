@@ -4,12 +4,14 @@
     cra-play --agent stand --num-envs 16            # no policy: the scripted stand at the reference pose
     cra-play runs/<run>/model_40.pt --usd rollout.usda   # also write an animated USD (any USD viewer plays it)
     cra-play runs/<run>/model_40.pt --video walk.gif     # and/or a GIF of robot 0 (MuJoCo's offscreen renderer)
+    cra-play runs/<run>/model_40.pt --command 0.5 0      # every robot told to walk forward (heading held at 0)
 
 Reports the velocity tracking error, falls per robot-minute and the distance walked.
 """
 
 from __future__ import annotations
 
+import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +36,7 @@ class PlayArgs:
     usd: Path | None = None            # write the rollout as an animated USD stage here
     video: Path | None = None          # write robot 0's rollout as a GIF here (25 frames/s, a tracking camera)
     seed: int = 0
+    command: tuple[float, float] | None = None  # hold (v_x, v_y) [m/s], heading 0; default: the training's random ones
 
 
 def make_agent(a: PlayArgs, env):
@@ -83,11 +86,17 @@ def run(a: PlayArgs) -> dict:
     gif, falls_0, every = None, 0, max(1, round(1 / (25 * env.dt)))
     if a.video is not None:
         gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (every * env.dt))
+    held = None
+    if a.command is not None:
+        held = torch.tensor(a.command, device=env.device, dtype=torch.float32).expand(env.num_envs, 2)
+        env.hold_commands(held, torch.zeros(env.num_envs, device=env.device))
     obs = env.get_observations()
     falls, sq_err, dist = 0, torch.zeros(env.num_envs, device=env.device), torch.zeros(env.num_envs, device=env.device)
     with torch.inference_mode():
         for k in range(a.steps):
             prev_xy = env.root_pos[:, :2].clone()
+            if held is not None:  # again each step: a robot reset after a fall would draw a random command
+                env.hold_commands(held, torch.zeros(env.num_envs, device=env.device), refresh=False)
             cmd = env.commands.clone()
             obs, _, dones, extras = env.step(agent(obs))
             if hasattr(agent, "reset"):
@@ -121,6 +130,8 @@ def main(argv: list[str] | None = None) -> int:
         a = parse_args(PlayArgs, argv, __doc__)
         if a.agent == "policy" and (a.checkpoint is None or not a.checkpoint.is_file()):
             raise UsageError(f"a policy needs a checkpoint file, got {a.checkpoint}")
+        if a.command is not None and not all(math.isfinite(v) for v in a.command):
+            raise UsageError(f"--command must be finite, got {a.command}")
         if a.num_envs < 1 or a.steps < 1:
             raise UsageError(f"--num-envs and --steps must be >= 1, got {a.num_envs}, {a.steps}")
         check_sim(a.sim, a.device)
