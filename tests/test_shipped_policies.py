@@ -1,0 +1,48 @@
+"""Every policy we ship (robots/adam_lite/policies/<name>/, written by cra-export --ship) still runs on today's code
+and walks, and its exported graph acts as its checkpoint does.
+
+"Walks" here is a short, cheap version of cra-eval's flat trial: 8 nominal robots told to walk forward at 0.5 m/s
+for 6 s on flat ground in MuJoCo; none may fall and their average forward speed must reach half the command. The
+full figures of each policy (200 robots, 20 s, lateral and turning commands) are in its eval.json.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch
+
+POLICIES = sorted((Path(__file__).resolve().parents[1] / "robots" / "adam_lite" / "policies").glob("*/checkpoint.pt"))
+
+
+@pytest.mark.parametrize("checkpoint", POLICIES, ids=lambda p: p.parent.name)
+def test_shipped_policy_walks_and_its_export_acts_as_its_checkpoint(checkpoint):
+    from envs.loco_config import DomainRandConfig
+    from train.evaluate import flat_trial
+    from train.runner import runner_for_checkpoint
+
+    for name in ("policy.pt", "policy.onnx", "policy.json", "config.json", "eval.json", "curves.png"):
+        assert (checkpoint.parent / name).is_file(), f"{checkpoint.parent.name} ships no {name}"
+    runner, env = runner_for_checkpoint(checkpoint, num_envs=8, sim="mujoco", seed=0, terrain="flat",
+                                        randomization=DomainRandConfig(enabled=False), episode_length_s=1e6)
+    policy = runner.get_inference_policy()
+    seen = []
+
+    def act(obs, dones):
+        policy.reset(dones)
+        if len(seen) < 50:
+            seen.append(obs["policy"][:1].clone())
+        return policy(obs)
+
+    r = flat_trial(env, act, 0.5, 6.0)
+    assert r["fall_rate"] == 0.0, f"{r['fall_rate']:.0%} of the robots fell"
+    assert r["mean_error"] < 0.25, f"the robots' average forward speed is {r['mean_error']:.2f} m/s off 0.5"
+
+    jit = torch.jit.load(str(checkpoint.parent / "policy.pt"))
+    jit.reset()
+    with torch.inference_mode():
+        policy.reset(torch.ones(env.num_envs, dtype=torch.bool))
+        for obs in seen:  # robot 0's first observations, fed to both in order (the GRU carries state)
+            want = policy({"policy": obs.expand(env.num_envs, -1)})[:1]
+            torch.testing.assert_close(jit(obs), want, atol=1e-5, rtol=0)
