@@ -35,6 +35,11 @@ class GaitClockConfig:
     # zero action's stance then sweeps about the stride the command needs (0.25: 2 x 0.25 x v rad over half a 0.8 s
     # cycle on a ~0.8 m leg), so the policy starts from a forward gait rather than a march in place (0 = off).
     stride_feedforward: float = 0.0
+    # Start each episode's clock at a random phase instead of 0. With the feedforward on and every episode starting
+    # left foot first, the first steps from rest turn the robot one way (a scripted march of the feedforward alone
+    # turns ~0.8 rad/s clockwise from phase 0 and as fast anticlockwise from half a cycle), and the policies trained
+    # so took that turn up and kept it whatever the yaw command. A deploy program may still start at 0.
+    random_start_phase: bool = False
 
     def __post_init__(self):
         if self.cycle_time <= 0:

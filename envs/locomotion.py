@@ -325,7 +325,8 @@ class LocoEnv(VecEnv):
         rd = self.cfg.randomization
         self.push_timer[ids] = rd.push_interval * torch.rand(n, device=self.device, generator=self.gen)
         self.force_timer[ids] = rd.force_interval * torch.rand(n, device=self.device, generator=self.gen)
-        self.clock.reset(ids)
+        g = self.cfg.gait
+        self.clock.reset(ids, self._uniform(0.0, g.cycle_time, n) if g.random_start_phase else None)
         for s in self.episode_sums.values():
             s[ids] = 0.0
         self._resample_commands(ids)

@@ -368,6 +368,38 @@ def test_swing_feedforward_lifts_each_foot_while_the_clock_has_it_in_swing():
     assert (height < 0.01).all() and not airborne.any(), (height, airborne)
 
 
+def test_a_march_of_the_feedforward_turns_the_way_its_start_phase_says():
+    # Why gait.random_start_phase exists: the scripted stand plus the swing and stride feedforward under a 0.3 m/s
+    # command turns the robot clockwise when its clock starts at phase 0 (left foot first) and anticlockwise from
+    # half a cycle, each by more than 0.3 rad/s on average over its first second. A policy trained from phase-0
+    # starts only inherits one of the two turns.
+    def mean_yaw_rate(start):
+        cfg = LocoConfig(num_envs=2, device=DEVICE, randomization=DomainRandConfig(enabled=False))
+        cfg.gait.swing_feedforward, cfg.gait.stride_feedforward = 0.25, 0.5
+        cfg.commands.heading_mode = False
+        env = LocoEnv(cfg)
+        ids = torch.arange(2, device=env.device)
+        env.reset_idx(ids)
+        env.clock.reset(ids, torch.full((2,), start, device=env.device))
+        rate = torch.zeros(2)
+        for _ in range(50):
+            env.hold_commands(torch.tensor([[0.3, 0.0]] * 2, device=env.device), torch.zeros(2, device=env.device))
+            env.step(env.stand_actions())
+            rate += env.base_ang_vel[:, 2].cpu() / 50
+        return rate
+
+    assert (mean_yaw_rate(0.0) < -0.3).all() and (mean_yaw_rate(0.4) > 0.3).all()
+
+
+def test_random_start_phase_spreads_the_clock_over_the_cycle():
+    cfg = LocoConfig(num_envs=64, device=DEVICE)
+    assert (LocoEnv(cfg).clock.phase == 0).all()
+    cfg.gait.random_start_phase = True
+    phase = LocoEnv(cfg).clock.phase
+    assert phase.min() >= 0 and phase.max() < cfg.gait.cycle_time
+    assert phase.std() > 0.15 and (phase < cfg.gait.cycle_time / 2).float().mean().item() == pytest.approx(0.5, abs=0.2)
+
+
 def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
     # The PD targets of a zero action under a 0.5 m/s forward command, through forward kinematics in the pelvis
     # frame: where the clock puts a foot down (its leg signal rising through 0) the target sole is ahead of where
