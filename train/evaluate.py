@@ -15,7 +15,7 @@ the reference pose and walks nowhere (the robot's soft ankles make a zero action
 The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0,
 for --seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
 the first 2 s (the start from rest). --lateral adds trials commanded (0, v_y), --yaw-rates trials turning at a yaw
-rate while walking forward at --turn-speed (the training's heading controller is off for a standing command); each
+rate while walking forward at --turn-speed (heading mode commands no turn to a robot told to stand still); each
 record gives the mean tracking error of v_x, v_y and the yaw rate, per step and of each robot's average over the
 trial (its gait's sway within a step averages out).
 
@@ -326,7 +326,8 @@ def print_table(records: list[dict]) -> None:
     if means:
         print(f"\nmean (std) success % over seeds: {', '.join(dict.fromkeys(m['method'] for m in means))}")
         for m in means:
-            where = m["kind"] and f"{m['kind']} level {m['level']}" or m["trial"]
+            where = (m["kind"] and f"{m['kind']} level {m['level']}"
+                     or f"{m['trial']} v_y {m['lateral'] or 0:+.2f} yaw {m['yaw_rate'] or 0:+.2f}")
             print(f"  {m['method']:12} {m['protocol'] or '':12} {m['speed']:5.2f} m/s {where:24} "
                   f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}")
     if records and records[0].get("trial") == "flat":
