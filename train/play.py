@@ -4,7 +4,7 @@
     cra-play --agent stand --num-envs 16            # no policy: the scripted stand at the reference pose
     cra-play runs/<run>/model_40.pt --usd rollout.usda   # also write an animated USD (any USD viewer plays it)
     cra-play runs/<run>/model_40.pt --video walk.gif     # and/or a GIF of robot 0 (MuJoCo's offscreen renderer)
-    cra-play runs/<run>/model_40.pt --command 0.5 0      # every robot told to walk forward (heading held at 0)
+    cra-play runs/<run>/model_40.pt --command 0.5 0      # every robot told to walk forward, not to turn
 
 Reports the velocity tracking error, falls per robot-minute and the distance walked.
 """
@@ -36,7 +36,7 @@ class PlayArgs:
     usd: Path | None = None            # write the rollout as an animated USD stage here
     video: Path | None = None          # write robot 0's rollout as a GIF here (25 frames/s, a tracking camera)
     seed: int = 0
-    command: tuple[float, float] | None = None  # hold (v_x, v_y) [m/s], heading 0; default: the training's random ones
+    command: tuple[float, float] | None = None  # hold (v_x, v_y) [m/s], heading 0 (yaw rate 0 without heading mode)
 
 
 def make_agent(a: PlayArgs, env):
