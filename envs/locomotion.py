@@ -357,9 +357,10 @@ class LocoEnv(VecEnv):
             self.heading[ids] = heading
             self.command_timer[ids] = c.resample_time
 
-    def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True):
+    def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True,
+                      yaw_rate: float = 0.0):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
-        heading (heading mode) or is zero. They hold until the next call (a reset robot draws random ones until
+        heading (heading mode) or is ``yaw_rate``. They hold until the next call (a reset robot draws random ones until
         then). ``refresh``: recompute the observation so the next action already sees them; a caller that steers
         every step can skip it, as step() re-applies the heading before its observation."""
         self.commands[:, :2] = lin_vel_xy
@@ -368,7 +369,7 @@ class LocoEnv(VecEnv):
         if self.cfg.commands.heading_mode:
             self._heading_control()
         else:
-            self.commands[:, 2] = 0.0
+            self.commands[:, 2] = yaw_rate
         if refresh:
             self.obs = self._observations()
 

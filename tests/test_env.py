@@ -391,6 +391,17 @@ def test_a_march_of_the_feedforward_turns_the_way_its_start_phase_says():
     assert (mean_yaw_rate(0.0) < -0.3).all() and (mean_yaw_rate(0.4) > 0.3).all()
 
 
+def test_held_yaw_rate_is_commanded_and_observed_without_heading_mode():
+    cfg = LocoConfig(num_envs=2, device=DEVICE)
+    cfg.commands.heading_mode = False
+    env = LocoEnv(cfg)
+    env.hold_commands(torch.tensor([[0.3, 0.0]] * 2, device=env.device), torch.zeros(2, device=env.device),
+                      yaw_rate=-0.3)
+    assert torch.allclose(env.commands[:, 2], torch.full((2,), -0.3, device=env.device))
+    seen = env.obs["policy"][:, env.layout["command"]][:, 2]
+    assert torch.allclose(seen, torch.full((2,), -0.3 * cfg.obs.command_scale[2], device=env.device))
+
+
 def test_random_start_phase_spreads_the_clock_over_the_cycle():
     cfg = LocoConfig(num_envs=64, device=DEVICE)
     assert (LocoEnv(cfg).clock.phase == 0).all()

@@ -131,13 +131,12 @@ def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw
     heading = torch.zeros(n, device=dev)
     env.reset_idx(torch.arange(n, device=dev))
     dones = torch.ones(n, dtype=torch.bool, device=dev)
+    steer = bool(yaw_rate) and env.cfg.commands.heading_mode  # else the yaw rate is commanded as it is
     with torch.inference_mode():
         for k in range(round(seconds / env.dt)):
-            if yaw_rate:
+            if steer:  # a heading ahead of the robot's own, seen in this step's observation
                 heading = _turning_heading(env, yaw_rate)
-            env.hold_commands(lin, heading, refresh=k == 0 or bool(yaw_rate))
-            if yaw_rate and not env.cfg.commands.heading_mode:
-                env.commands[:, 2] = yaw_rate
+            env.hold_commands(lin, heading, refresh=k == 0 or steer, yaw_rate=yaw_rate)
             commanded = env.commands[:, :3].clone()   # what this step's action was chosen for
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
