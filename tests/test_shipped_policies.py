@@ -2,7 +2,7 @@
 and walks, and its exported graph acts as its checkpoint does.
 
 "Walks" here is a short, cheap version of cra-eval's flat trial: 8 nominal robots told to walk forward at 0.5 m/s
-for 6 s on flat ground in MuJoCo; none may fall and their average forward speed must reach half the command. The
+for 6 s on flat ground in MuJoCo; none may fall and their average forward speeds must be within 0.25 m/s of it. The
 full figures of each policy (200 robots, 20 s, lateral and turning commands) are in its eval.json.
 """
 
