@@ -82,11 +82,19 @@ class DeployPolicy:
             self.gait = spec["gait"] if self.action_dim == J + 3 else None
             self.clock_runs = spec.get("variant", "adaptive") == "adaptive"  # fixed_cycle ignores its gait actions
             self.feedforward = float(self.gait.get("swing_feedforward", 0.0)) if self.gait else 0.0
-            self.stride = float(self.gait.get("stride_feedforward", 0.0)) if self.gait else 0.0
-            if self.feedforward or self.stride:
+            self.sweeps = []                               # (joint per leg, signed gain per leg, command index)
+            gains = [float(self.gait.get(f"{k}_feedforward", 0.0)) if self.gait else 0.0
+                     for k in ("stride", "lateral", "turn")]
+            if self.feedforward or any(gains):
                 swing = spec["swing"]
                 self.swing_ids = np.array([[self.joint_names.index(n) for n in leg] for leg in swing["joints"]])
                 self.swing_profile = np.asarray(swing["profile"], dtype=np.float64)
+                legs = {0: (self.swing_ids[:, 0], [self.swing_profile[0]] * len(self.swing_ids))}  # stride: hip pitch
+                for c, key in ((1, "lateral_joints"), (2, "turn_joints")):
+                    if gains[c]:
+                        legs[c] = ([self.joint_names.index(j) for j, _ in swing[key]], [sign for _, sign in swing[key]])
+                self.sweeps = [(np.asarray(legs[c][0]), gains[c] * np.asarray(legs[c][1], dtype=np.float64), c)
+                               for c in range(3) if gains[c]]
             self.control_dt = float(spec["control_dt"])
             scales = spec["obs_scales"]
             self.command_scale = np.asarray(scales["command"], dtype=np.float64)
@@ -117,7 +125,7 @@ class DeployPolicy:
         self.phase = 0.0                                   # phi [s]
         self.prev_action = np.zeros(self.action_dim)
         self.avg_yaw_rate = 0.0
-        self.command = np.zeros(3)                         # the last observed command (the stride follows it)
+        self.command = np.zeros(3)                         # the last observed command (the sweeps follow it)
         self._stepped = False                              # an action was applied since the last observation
 
     def observe(self, command, gravity, q, qd, ang_vel) -> np.ndarray:
@@ -175,13 +183,14 @@ class DeployPolicy:
             self.phase = math.fmod(self.phase + rate * self.control_dt, g["cycle_time"])
         self._stepped = True
         q_target = self.default_q + self.action_scale * a[:J]
-        if self.feedforward or self.stride:
+        if self.feedforward or self.sweeps:
             g = self.gait
             d1, d2 = (g["beta_scale"] * a[J + 1], g["beta_scale"] * a[J + 2]) if self.clock_runs else (0.0, 0.0)
             angle = 2.0 * math.pi * (self.phase / g["cycle_time"] + np.array([d1, d2 + g["psi"]]))
             depth = np.clip((g["gamma"] - np.sin(angle)) / (1.0 + g["gamma"]), 0.0, 1.0)  # as gait.swing_depth
             q_target[self.swing_ids] += self.feedforward * depth[:, None] * self.swing_profile
-            q_target[self.swing_ids[:, 0]] += self.swing_profile[0] * self.stride * self.command[0] * np.cos(angle)
+            for ids, gain, c in self.sweeps:
+                q_target[ids] += gain * self.command[c] * np.cos(angle)
         return q_target
 
     def step(self, command, gravity, q, qd, ang_vel) -> np.ndarray:

@@ -35,6 +35,13 @@ class GaitClockConfig:
     # zero action's stance then sweeps about the stride the command needs (0.25: 2 x 0.25 x v rad over half a 0.8 s
     # cycle on a ~0.8 m leg), so the policy starts from a forward gait rather than a march in place (0 = off).
     stride_feedforward: float = 0.0
+    # [rad per m/s] and [rad per rad/s] Beyond the paper, the same sweep for the other two commands: each leg's
+    # lateral joint (hip roll) gets lateral_feedforward x v_cmd_y x cos(leg angle) and its turn joint (hip yaw)
+    # turn_feedforward x yaw_rate_cmd x cos(leg angle), signed so the foot lands displaced and turned towards the
+    # command and sweeps back under the body in stance (0.2: a 0.5 rad/s turn rotates the pelvis ~0.4 rad per 0.8 s
+    # cycle, two stances of 2 x 0.1 rad). Without them the policy must discover side steps and turning steps alone.
+    lateral_feedforward: float = 0.0
+    turn_feedforward: float = 0.0
     # Start each episode's clock at a random phase instead of 0. With the feedforward on and every episode starting
     # left foot first, the first steps from rest turn the robot one way (a scripted march of the feedforward alone
     # turns ~0.8 rad/s clockwise from phase 0 and as fast anticlockwise from half a cycle), and the policies trained
@@ -48,8 +55,9 @@ class GaitClockConfig:
             raise ValueError(f"GaitClockConfig.gamma must be in (-1, 1), got {self.gamma}")
         if self.swing_feedforward < 0:
             raise ValueError(f"GaitClockConfig.swing_feedforward must be >= 0, got {self.swing_feedforward}")
-        if self.stride_feedforward < 0:
-            raise ValueError(f"GaitClockConfig.stride_feedforward must be >= 0, got {self.stride_feedforward}")
+        for f in ("stride_feedforward", "lateral_feedforward", "turn_feedforward"):
+            if getattr(self, f) < 0:
+                raise ValueError(f"GaitClockConfig.{f} must be >= 0, got {getattr(self, f)}")
 
 
 class GaitClock:

@@ -64,6 +64,7 @@ class LocoEnv(VecEnv):
         self.swing_joints = torch.tensor([robot.joint_ids(leg) for leg in robot.swing_joints], dtype=torch.long,
                                          device=self.device).view(len(robot.swing_joints), len(robot.swing_profile))
         self.swing_profile = torch.tensor(robot.swing_profile, **d)
+        self.command_sweeps = self._command_sweeps()
         self.torso_body = self.world.body_index[robot.torso_link]
         self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
@@ -140,10 +141,10 @@ class LocoEnv(VecEnv):
             if cfg.gait.swing_feedforward:
                 ff = cfg.gait.swing_feedforward * self.clock.swing_depth.unsqueeze(-1) * self.swing_profile
                 self.world.joint_target[:, self.swing_joints] += ff
-            if cfg.gait.stride_feedforward:
-                # the swing profile's hip entry is the sign that brings the thigh forward
-                stride = cfg.gait.stride_feedforward * self.commands[:, :1] * torch.cos(self.clock.leg_angles)
-                self.world.joint_target[:, self.swing_joints[:, 0]] += self.swing_profile[0] * stride
+            if self.command_sweeps:
+                sweep = torch.cos(self.clock.leg_angles)  # [N, legs]: +1 where a foot goes down, -1 where it lifts
+                for joints, gain, c in self.command_sweeps:
+                    self.world.joint_target[:, joints] += gain * self.commands[:, c:c + 1] * sweep
         self._perturb()
         self.world.step()
 
@@ -177,6 +178,25 @@ class LocoEnv(VecEnv):
         self._heading_control()  # the yaw-rate command observed now is the one the next step's reward tracks
         self.obs = self._observations()
         return self.obs, rew, dones.long(), extras
+
+    def _command_sweeps(self) -> list[tuple[torch.Tensor, torch.Tensor, int]]:
+        """The clock's stride, lateral and turn feedforward that are on: (joint per leg [legs], signed gain per leg
+        [legs], command index)."""
+        g, robot, d = self.cfg.gait, self.robot, {"device": self.device}
+        if not self.cfg.uses_clock:
+            return []
+        legs = [(g.stride_feedforward, 0, [leg[0] for leg in robot.swing_joints],
+                 [robot.swing_profile[0]] * len(robot.swing_joints)),  # the profile's hip sign brings the thigh forward
+                (g.lateral_feedforward, 1, [j for j, _ in robot.lateral_joints], [s for _, s in robot.lateral_joints]),
+                (g.turn_feedforward, 2, [j for j, _ in robot.turn_joints], [s for _, s in robot.turn_joints])]
+        out = []
+        for gain, c, names, signs in legs:
+            if gain:
+                if not names:
+                    raise ValueError(f"gait feedforward on command {c} needs the robot's joints for it ({robot.name})")
+                out.append((torch.tensor(robot.joint_ids(tuple(names)), dtype=torch.long, **d),
+                            gain * torch.tensor(signs, dtype=torch.float32, **d), c))
+        return out
 
     def stand_actions(self) -> torch.Tensor:
         """[N, A] actions of the scripted stand (cra_warp.stand) at the current state; gait actions 0."""

@@ -47,6 +47,11 @@ class RobotConfig:
     # moves (rad per rad of the reward's swing amplitude) from default_q at the top of the swing.
     swing_joints: tuple[tuple[str, ...], ...] = ()
     swing_profile: tuple[float, ...] = ()
+    # The clock's lateral and turn feedforward (cra_warp.gait): per foot, the joint that moves the sole sideways and
+    # the one that turns it about the vertical, each with the sign (+-1) of the angle that moves the sole to +y (left)
+    # or turns its toes anticlockwise seen from above.
+    lateral_joints: tuple[tuple[str, float], ...] = ()
+    turn_joints: tuple[tuple[str, float], ...] = ()
 
     def __post_init__(self):
         n = len(self.joint_names)
@@ -63,6 +68,12 @@ class RobotConfig:
                                   or any(j not in self.joint_names for leg in self.swing_joints for j in leg)):
             raise ValueError(f"RobotConfig.swing_joints needs one tuple of driven joints per foot, each as long as "
                              f"swing_profile {self.swing_profile}, got {self.swing_joints}")
+
+        for f in ("lateral_joints", "turn_joints"):
+            legs = getattr(self, f)
+            if legs and (len(legs) != len(self.foot_links) or any(j not in self.joint_names or abs(sign) != 1
+                                                                  for j, sign in legs)):
+                raise ValueError(f"RobotConfig.{f} needs one (driven joint, +-1) per foot, got {legs}")
 
     def joint_ids(self, names: tuple[str, ...]) -> list[int]:
         """Canonical indices of ``names``."""

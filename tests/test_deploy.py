@@ -27,10 +27,11 @@ def test_deploy_module_imports_no_training_stack():
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
-def _exported(variant: str, tmp_path, swing_feedforward: float = 0.0, stride_feedforward: float = 0.0):
+def _exported(variant: str, tmp_path, **gait):
     cfg = LocoConfig(num_envs=2, variant=variant, seed=3)
-    cfg.gait.swing_feedforward = swing_feedforward
-    cfg.gait.stride_feedforward = stride_feedforward
+    for k, v in gait.items():
+        setattr(cfg.gait, k, v)
+    cfg.commands.heading_mode = False
     cfg.world.backend = "mujoco"
     cfg.obs.noise = False
     env = LocoEnv(cfg)
@@ -68,14 +69,16 @@ def test_observation_and_action_parity_with_the_env(variant, tmp_path):
 
 
 @pytest.mark.parametrize("variant", ["adaptive", "fixed_cycle"])
-def test_pd_target_parity_with_the_env_with_swing_and_stride_feedforward(variant, tmp_path):
-    """With the clock's swing and stride feedforward on, the deploy module's PD targets (actions plus the
-    clock-driven offsets, from the JSON and the observed command alone) equal the env's for 20 control steps of
-    random actions, and the offsets act."""
-    env, _, dep = _exported(variant, tmp_path, swing_feedforward=0.3, stride_feedforward=0.25)
-    assert dep.feedforward == pytest.approx(0.3) and dep.stride == pytest.approx(0.25)
-    # a forward command held, so the stride acts (a random one may be "stand still")
-    env.hold_commands(torch.tensor([[0.5, 0.0]] * env.num_envs), torch.zeros(env.num_envs))
+def test_pd_target_parity_with_the_env_with_the_clock_feedforward(variant, tmp_path):
+    """With the clock's swing, stride, lateral and turn feedforward on, the deploy module's PD targets (actions plus
+    the clock-driven offsets, from the JSON and the observed command alone) equal the env's for 20 control steps of
+    random actions, and the offsets act on the hip pitch, roll and yaw."""
+    env, _, dep = _exported(variant, tmp_path, swing_feedforward=0.3, stride_feedforward=0.25,
+                            lateral_feedforward=0.3, turn_feedforward=0.2)
+    assert dep.feedforward == pytest.approx(0.3)
+    assert [(c, g.tolist()) for _, g, c in dep.sweeps] == [(0, [-0.25, -0.25]), (1, [0.3, 0.3]), (2, [0.2, 0.2])]
+    # a command held, so the sweeps act (a random one may be "stand still")
+    env.hold_commands(torch.tensor([[0.5, 0.2]] * env.num_envs), torch.zeros(env.num_envs), yaw_rate=0.4)
     gen = torch.Generator().manual_seed(2)
     offsets = []
     for step in range(20):
@@ -86,8 +89,10 @@ def test_pd_target_parity_with_the_env_with_swing_and_stride_feedforward(variant
         env.step(a)
         np.testing.assert_allclose(q_target, env.joint_target[0].numpy(), atol=1e-5, err_msg=f"step {step}")
         commanded = dep.default_q + dep.action_scale * dep.clip(a[0].numpy())[:dep.num_joints]
-        offsets.append(np.abs(q_target - commanded)[dep.swing_ids[:, 0]].max())
-    assert max(offsets) > 0.1, "the feedforward never moved a hip pitch target"
+        offsets.append(np.abs(q_target - commanded))
+    hips = {name: np.max([o[dep.joint_names.index(f"{name}_Left")] for o in offsets])
+            for name in ("hipPitch", "hipRoll", "hipYaw")}
+    assert min(hips.values()) > 0.05, f"a feedforward never moved its hip target: {hips}"
 
 
 def test_torque_parity_with_the_training_actuator():

@@ -411,37 +411,60 @@ def test_random_start_phase_spreads_the_clock_over_the_cycle():
     assert phase.std() > 0.15 and (phase < cfg.gait.cycle_time / 2).float().mean().item() == pytest.approx(0.5, abs=0.2)
 
 
-def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
-    # The PD targets of a zero action under a 0.5 m/s forward command, through forward kinematics in the pelvis
-    # frame: where the clock puts a foot down (its leg signal rising through 0) the target sole is ahead of where
-    # it lifts it (falling through 0) by about a step (2 x 0.25 x 0.5 rad on a ~0.8 m leg); backwards for a
-    # backward command; no stride without a command.
+def _sweep_at_touchdown(feedforward: str, command: tuple[float, float, float]) -> list[float]:
+    """Per leg, how far a zero action's PD targets put the sole, in the pelvis frame through forward kinematics,
+    where the clock puts the foot down (its leg signal rising through 0) from where it lifts it (falling through 0),
+    under a held command (vx, vy, yaw rate) with gait.<feedforward> = 0.25: along x for the stride, y for the
+    lateral feedforward and the sole's yaw [rad] for the turn."""
     from cra_warp.kinematics import Kinematics
 
-    def stride(v):
-        cfg = LocoConfig(num_envs=1, device=DEVICE, randomization=DomainRandConfig(enabled=False))
-        cfg.gait.stride_feedforward = 0.25
-        env = LocoEnv(cfg)
-        env.reset_idx(torch.arange(1, device=env.device))
-        env.hold_commands(torch.tensor([[v, 0.0]], device=env.device), torch.zeros(1, device=env.device))
-        kin, targets, signals = Kinematics(ADAM_LITE), [], []
-        for _ in range(round(cfg.gait.cycle_time / env.dt) + 1):
-            env.step(torch.zeros(1, env.num_actions, device=env.device))
-            targets.append(env.world.joint_target[0].cpu().clone())
-            signals.append(env.clock.signals[0].cpu().clone())
-        sig = torch.stack(signals)
-        q = torch.stack(targets)
-        upright = torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(len(q), 1)
-        x = kin.feet(torch.zeros(len(q), 3), upright, q).sole_centres[..., 0]
-        out = []
-        for leg in range(2):
-            s = sig[:, leg]
-            down = int(torch.argmin(torch.where(s[1:] > s[:-1], s[1:].abs(), 9.0))) + 1   # rising through 0
-            up = int(torch.argmin(torch.where(s[1:] < s[:-1], s[1:].abs(), 9.0))) + 1     # falling through 0
-            out.append((x[down, leg] - x[up, leg]).item())
-        return out
+    cfg = LocoConfig(num_envs=1, device=DEVICE, randomization=DomainRandConfig(enabled=False))
+    cfg.commands.heading_mode = False
+    setattr(cfg.gait, feedforward, 0.25)
+    env = LocoEnv(cfg)
+    env.reset_idx(torch.arange(1, device=env.device))
+    env.hold_commands(torch.tensor([command[:2]], device=env.device), torch.zeros(1, device=env.device),
+                      yaw_rate=command[2])
+    kin, targets, signals = Kinematics(ADAM_LITE), [], []
+    for _ in range(round(cfg.gait.cycle_time / env.dt) + 1):
+        env.step(torch.zeros(1, env.num_actions, device=env.device))
+        targets.append(env.world.joint_target[0].cpu().clone())
+        signals.append(env.clock.signals[0].cpu().clone())
+    sig = torch.stack(signals)
+    q = torch.stack(targets)
+    upright = torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(len(q), 1)
+    feet = kin.feet(torch.zeros(len(q), 3), upright, q)
+    toes = feet.sole_corners[:, :, 0] - feet.sole_corners[:, :, 2]        # back-left -> front-left corner
+    measure = {"stride_feedforward": feet.sole_centres[..., 0], "lateral_feedforward": feet.sole_centres[..., 1],
+               "turn_feedforward": torch.atan2(toes[..., 1], toes[..., 0])}[feedforward]
+    out = []
+    for leg in range(2):
+        s = sig[:, leg]
+        down = int(torch.argmin(torch.where(s[1:] > s[:-1], s[1:].abs(), 9.0))) + 1   # rising through 0
+        up = int(torch.argmin(torch.where(s[1:] < s[:-1], s[1:].abs(), 9.0))) + 1     # falling through 0
+        out.append((measure[down, leg] - measure[up, leg]).item())
+    return out
 
-    forward, backward, still = stride(0.5), stride(-0.5), stride(0.0)
+
+def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
+    # About a step (2 x 0.25 x 0.5 rad on a ~0.8 m leg) ahead under a 0.5 m/s forward command; backwards for a
+    # backward command; no stride without a command.
+    forward, backward = (_sweep_at_touchdown("stride_feedforward", (v, 0.0, 0.0)) for v in (0.5, -0.5))
+    still = _sweep_at_touchdown("stride_feedforward", (0.0, 0.3, 0.5))
     assert all(0.1 < d < 0.35 for d in forward), forward
     assert all(-0.35 < d < -0.1 for d in backward), backward
     assert all(abs(d) < 0.01 for d in still), still
+
+
+def test_lateral_and_turn_feedforward_put_each_foot_down_towards_the_command():
+    # Under a 0.3 m/s leftward command each sole lands ~2 x 0.25 x 0.3 rad x leg length further left than it lifts
+    # (the robot's lateral joint signs are right), rightward for a rightward one; under a 0.5 rad/s turn each sole
+    # lands turned ~2 x 0.25 x 0.5 rad anticlockwise from where it lifts; neither moves for a forward command.
+    left, right = (_sweep_at_touchdown("lateral_feedforward", (0.0, v, 0.0)) for v in (0.3, -0.3))
+    assert all(0.05 < d < 0.25 for d in left), left
+    assert all(-0.25 < d < -0.05 for d in right), right
+    anticlockwise, clockwise = (_sweep_at_touchdown("turn_feedforward", (0.0, 0.0, w)) for w in (0.5, -0.5))
+    assert all(0.15 < d < 0.35 for d in anticlockwise), anticlockwise
+    assert all(-0.35 < d < -0.15 for d in clockwise), clockwise
+    for ff in ("lateral_feedforward", "turn_feedforward"):
+        assert all(abs(d) < 0.01 for d in _sweep_at_touchdown(ff, (0.5, 0.0, 0.0))), ff

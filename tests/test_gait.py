@@ -87,8 +87,9 @@ def test_config_errors_name_the_field():
         GaitClockConfig(gamma=1.5)
     with pytest.raises(ValueError, match="swing_feedforward"):
         GaitClockConfig(swing_feedforward=-0.1)
-    with pytest.raises(ValueError, match="stride_feedforward"):
-        GaitClockConfig(stride_feedforward=-0.1)
+    for f in ("stride_feedforward", "lateral_feedforward", "turn_feedforward"):
+        with pytest.raises(ValueError, match=f):
+            GaitClockConfig(**{f: -0.1})
 
 
 def test_swing_depth_is_zero_in_stance_and_one_mid_swing():

@@ -52,3 +52,12 @@ def test_with_gains_sets_both_sides_and_names_unknown_joints():
     assert (stiff.kp[left], stiff.kp[right]) == (400.0, ADAM_LITE.kp[right])
     with pytest.raises(ValueError, match="'ankle' names no driven joint"):
         ADAM_LITE.with_gains({"ankle": (1.0, 1.0)})
+
+
+def test_feedforward_joint_groups_need_one_signed_driven_joint_per_foot():
+    import dataclasses
+
+    for bad in ((("hipRoll_Left", 1.0),), (("hipRoll_Left", 1.0), ("wristYaw_Left", 1.0)),
+                (("hipRoll_Left", 1.0), ("hipRoll_Right", 0.5))):
+        with pytest.raises(ValueError, match="lateral_joints"):
+            dataclasses.replace(ADAM_LITE, lateral_joints=bad)

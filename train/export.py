@@ -78,7 +78,13 @@ def deploy_metadata(env) -> dict:
                                       "+ d1), sin 2 pi (phi / cycle_time + d2 + psi)) for (left, right)"),
                       "stride": ("if gait.stride_feedforward > 0: leg i's first joint (hip pitch) also gets profile[0] "
                                  "x stride_feedforward x command vx x cos of sig_i's angle, the command as observed "
-                                 "this control step")}}
+                                 "this control step"),
+                      "lateral_joints": [list(j) for j in robot.lateral_joints],
+                      "turn_joints": [list(j) for j in robot.turn_joints],
+                      "sweeps": ("likewise, if gait.lateral_feedforward > 0, leg i's lateral joint gets sign_i x "
+                                 "lateral_feedforward x command vy x cos of sig_i's angle, and if "
+                                 "gait.turn_feedforward > 0 its turn joint sign_i x turn_feedforward x command yaw "
+                                 "rate x that cos ((joint, sign_i) per leg in lateral_joints, turn_joints)")}}
            if cfg.uses_clock and robot.swing_joints else {}),
         "control_dt": env.dt,
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,

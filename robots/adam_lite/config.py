@@ -78,6 +78,10 @@ ADAM_LITE = RobotConfig(
     swing_joints=tuple(tuple(f"{j}_{side}" for j in ("hipPitch", "kneePitch", "anklePitch"))
                        for side in ("Left", "Right")),
     swing_profile=(-1.0, 2.0, -1.0),
+    # both hip roll axes point forward-ish and both hip yaw axes up: on either leg a positive angle moves the sole
+    # left and turns its toes left (tests/test_env.py checks it through forward kinematics)
+    lateral_joints=(("hipRoll_Left", 1.0), ("hipRoll_Right", 1.0)),
+    turn_joints=(("hipYaw_Left", 1.0), ("hipYaw_Right", 1.0)),
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
     # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
     # ankle pitch kd dt / I = 3.5 x 0.005 / (0.0043 + 0.01) = 1.2 with it, 4.1 without (explicit damping diverges
