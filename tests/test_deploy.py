@@ -174,6 +174,11 @@ def test_sim2sim_runs_the_vendor_model(export_dir, tmp_path):
     policy = DeployPolicy(export_dir)
     r = sim2sim.Trial(model, (qadr, vadr), held, policy, spec_json, sim2sim.Terrain(args)).run(0.5, 0.3, 0)
     assert r["time_survived"] == pytest.approx(0.3) and not r["fell"]
+    # the vendor's file has rotor inertia on ankle pitch only; --export-armature adds the training's to every drive
+    assert (model.dof_armature[vadr] < spec_json["pd"]["armature"]).all()
+    args.export_armature = True
+    model, _, vadr, _ = sim2sim.build_model(args, spec_json)
+    assert (model.dof_armature[vadr] == pytest.approx(spec_json["pd"]["armature"]))
 
 
 def test_sim2sim_bad_input_is_one_line(export_dir, tmp_path, capsys):

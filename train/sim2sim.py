@@ -12,7 +12,8 @@ robot's MJCF as cra_warp builds it for both backends).
 Each trial starts at the reference pose with small joint offsets (uniform +-0.02 rad, its seed), commanded forward
 at the speed with its heading held at 0 by the training's heading controller. Per trial: fell, time survived,
 distance along x, mean forward-velocity tracking error after the first second, step frequency (touchdowns per
-second). PASS needs --min-success of the trials to survive and, with --max-tracking-error, that error or less.
+second). --export-armature gives each driven joint at least the rotor inertia the export trained with (its JSON's
+pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to survive and, with --max-tracking-error, that error or less.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class Sim2SimArgs:
     seconds: float = 20.0
     physics_dt: float = 0.001                    # [s]; must divide the policy's control period
     seed: int = 0
+    export_armature: bool = False                # give the driven joints at least the export's rotor inertia
     min_success: float = 0.9                     # PASS: share of trials that do not fall
     max_tracking_error: float | None = None      # PASS: mean forward-velocity error [m/s], e.g. 1.5 x cra-eval's
     json: Path | None = None
@@ -139,6 +141,12 @@ def build_model(a: Sim2SimArgs, spec_json: dict):
     for name in [*spec_json["joint_names"], *held]:
         target = joint_names[_find(joint_names, name, "joint", a.model or "the training model")]
         spec.add_actuator(name=f"motor_{name}", target=target, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    if a.export_armature:  # the vendor's MJCF carries no rotor inertia (0.001 on ankle pitch); the drives do
+        arm = np.broadcast_to(np.asarray(spec_json["pd"]["armature"], dtype=float), (len(spec_json["joint_names"]),))
+        joints = {j.name: j for j in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_JOINT)}
+        for name, value in zip(spec_json["joint_names"], arm):
+            j = joints[joint_names[_find(joint_names, name, "joint", a.model or "the training model")]]
+            j.armature = max(float(j.armature), float(value))
     Terrain(a).add_to(spec)
     if a.video is not None:
         video.add_skeleton(spec)
@@ -270,6 +278,7 @@ def run(a: Sim2SimArgs) -> dict:
     err = float(np.mean(errs)) if errs else None
     passed = success >= a.min_success and (a.max_tracking_error is None or (err is not None and err <= a.max_tracking_error))
     return {"export": str(a.export), "model": str(a.model or "training model"), "terrain": a.terrain,
+            "armature": "at least the export's" if a.export_armature else "the model's",
             "physics_dt": a.physics_dt, "control_dt": policy.control_dt, "seconds": a.seconds,
             "success": success, "tracking_error": err, "pass": passed,
             "criteria": {"min_success": a.min_success, "max_tracking_error": a.max_tracking_error},
