@@ -141,6 +141,9 @@ def test_flat_trial_commands_lateral_and_turning_and_a_stand_tracks_neither(tmp_
     assert turn["tracking_error_yaw"] == pytest.approx(0.3, abs=0.05)
     assert fwd["tracking_error_y"] < 0.05
     assert fwd["mean_error"] == pytest.approx(0.4, abs=0.05) and turn["mean_error_yaw"] == pytest.approx(0.3, abs=0.05)
+    # signed: the stand is slower than told forward and sideways, and turns less clockwise than told
+    assert fwd["offset"] == pytest.approx(-0.4, abs=0.05) and side["offset_y"] == pytest.approx(-0.2, abs=0.05)
+    assert turn["offset_yaw"] == pytest.approx(0.3, abs=0.05)
 
 
 class _AlternatingFeet:
@@ -178,6 +181,7 @@ def test_flat_trial_counts_touchdowns_and_single_support():
     r = eval_cli.flat_trial(_AlternatingFeet(), lambda obs, dones: None, 0.5, 10.0)
     assert r["success_rate"] == 1.0 and r["tracking_error"] == pytest.approx(0.2)
     assert r["mean_error"] == pytest.approx(0.2, abs=1e-5) and r["tracking_error_y"] == 0.0
+    assert r["offset"] == pytest.approx(-0.2, abs=1e-5)
     assert r["touchdowns_per_s"] == pytest.approx(5.0, rel=0.02)     # 2 per 20 steps of 0.02 s
     assert r["single_support"] == pytest.approx(0.5, abs=0.01)
 

@@ -119,7 +119,8 @@ def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw
     ``yaw_rate`` turning at that rate (the training's heading controller, steered to a heading ahead of the robot's
     own). Fall rate, and after the first 2 s over the robots still up: the mean tracking error of each commanded
     quantity (v_x, v_y in the base frame, yaw rate against the command in force), the same for each robot's average
-    over the trial, then averaged over robots (the gait's sway within a step averages out of it), and the
+    over the trial, then averaged over robots (the gait's sway within a step averages out of it), that average
+    with its sign (offset: actual - command, e.g. < 0 for a robot slower than told), and the
     gait: touchdowns per second (both feet together) and the share of steps on one foot (a robot that stands still
     has neither)."""
     n, dev = env.num_envs, env.device
@@ -152,13 +153,16 @@ def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw
                 count += up.sum()
     up_s, ok = count * env.dt, count > 0
     counted = up_steps > 0
-    mean_err = (signed[counted] / up_steps[counted, None]).abs().mean(0).tolist() if counted.any() else [None] * 3
+    per_robot = signed[counted] / up_steps[counted, None]
+    mean_err = per_robot.abs().mean(0).tolist() if counted.any() else [None] * 3
+    offset = per_robot.mean(0).tolist() if counted.any() else [None] * 3   # signed: which way the robots miss
     return {"lateral": lateral, "yaw_rate": yaw_rate,
             "fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
             "tracking_error": float(err[0] / count) if ok else None,
             "tracking_error_y": float(err[1] / count) if ok else None,
             "tracking_error_yaw": float(err[2] / count) if ok else None,
             "mean_error": mean_err[0], "mean_error_y": mean_err[1], "mean_error_yaw": mean_err[2],
+            "offset": offset[0], "offset_y": offset[1], "offset_yaw": offset[2],
             "touchdowns_per_s": float(touchdowns / up_s) if ok else None,
             "single_support": float(single / count) if ok else None}
 
