@@ -13,7 +13,8 @@ Each trial starts at the reference pose with small joint offsets (uniform +-0.02
 at the speed with its heading held at 0 by the training's heading controller. Per trial: fell, time survived,
 distance along x, mean forward-velocity tracking error after the first second, step frequency (touchdowns per
 second). --export-armature gives each driven joint at least the rotor inertia the export trained with (its JSON's
-pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to survive and, with --max-tracking-error, that error or less.
+pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to survive and, with
+--max-tracking-error, that error or less.
 """
 
 from __future__ import annotations
