@@ -185,17 +185,16 @@ class LocoEnv(VecEnv):
         g, robot, d = self.cfg.gait, self.robot, {"device": self.device}
         if not self.cfg.uses_clock:
             return []
-        legs = [(g.stride_feedforward, 0, [leg[0] for leg in robot.swing_joints],
-                 [robot.swing_profile[0]] * len(robot.swing_joints)),  # the profile's hip sign brings the thigh forward
-                (g.lateral_feedforward, 1, [j for j, _ in robot.lateral_joints], [s for _, s in robot.lateral_joints]),
-                (g.turn_feedforward, 2, [j for j, _ in robot.turn_joints], [s for _, s in robot.turn_joints])]
+        stride = tuple((leg[0], robot.swing_profile[0]) for leg in robot.swing_joints)  # hip sign: thigh forward
         out = []
-        for gain, c, names, signs in legs:
+        for c, (field, legs) in enumerate((("stride", stride), ("lateral", robot.lateral_joints),
+                                           ("turn", robot.turn_joints))):
+            gain = getattr(g, f"{field}_feedforward")
             if gain:
-                if not names:
-                    raise ValueError(f"gait feedforward on command {c} needs the robot's joints for it ({robot.name})")
-                out.append((torch.tensor(robot.joint_ids(tuple(names)), dtype=torch.long, **d),
-                            gain * torch.tensor(signs, dtype=torch.float32, **d), c))
+                if not legs:
+                    raise ValueError(f"gait.{field}_feedforward needs the robot's joints for it ({robot.name})")
+                out.append((torch.tensor(robot.joint_ids(tuple(j for j, _ in legs)), dtype=torch.long, **d),
+                            gain * torch.tensor([sign for _, sign in legs], dtype=torch.float32, **d), c))
         return out
 
     def stand_actions(self) -> torch.Tensor:

@@ -68,7 +68,6 @@ class RobotConfig:
                                   or any(j not in self.joint_names for leg in self.swing_joints for j in leg)):
             raise ValueError(f"RobotConfig.swing_joints needs one tuple of driven joints per foot, each as long as "
                              f"swing_profile {self.swing_profile}, got {self.swing_joints}")
-
         for f in ("lateral_joints", "turn_joints"):
             legs = getattr(self, f)
             if legs and (len(legs) != len(self.foot_links) or any(j not in self.joint_names or abs(sign) != 1

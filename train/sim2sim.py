@@ -135,18 +135,19 @@ def build_model(a: Sim2SimArgs, spec_json: dict):
             mat.textures = ["" if x in lost else x for x in mat.textures]
     for act in list(spec.actuators):
         spec.delete(act)
-    joint_names = [j.name for j in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_JOINT)]
+    all_joints = spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_JOINT)
+    joint_names = [j.name for j in all_joints]
     # held joints the model has (the training model welds them: nothing to hold)
     held = {n: v for n, v in spec_json["pd"].get("held_joints", {}).items()
             if any(j == n or j.endswith("_" + n) for j in joint_names)}
+    driven = []
     for name in [*spec_json["joint_names"], *held]:
-        target = joint_names[_find(joint_names, name, "joint", a.model or "the training model")]
-        spec.add_actuator(name=f"motor_{name}", target=target, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        i = _find(joint_names, name, "joint", a.model or "the training model")
+        spec.add_actuator(name=f"motor_{name}", target=joint_names[i], trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        driven.append(all_joints[i])
     if a.export_armature:  # the vendor's MJCF carries no rotor inertia (0.001 on ankle pitch); the drives do
         arm = np.broadcast_to(np.asarray(spec_json["pd"]["armature"], dtype=float), (len(spec_json["joint_names"]),))
-        joints = {j.name: j for j in spec.worldbody.find_all(mujoco.mjtObj.mjOBJ_JOINT)}
-        for name, value in zip(spec_json["joint_names"], arm):
-            j = joints[joint_names[_find(joint_names, name, "joint", a.model or "the training model")]]
+        for j, value in zip(driven, arm):  # the policy's joints come first
             j.armature = max(float(j.armature), float(value))
     Terrain(a).add_to(spec)
     if a.video is not None:
