@@ -47,6 +47,19 @@ class TerrainCurriculum:
         self.levels[env_ids] = lv
         self.origins[env_ids] = self.tile_origins[lv, self.cols[env_ids]]
 
+    def restore(self, levels) -> None:
+        """Set every env's level [N] (a resumed run continues where its checkpoint was). The robots on the floor
+        now keep their tiles until their next reset, when they spawn on the restored level's tile."""
+        levels = torch.as_tensor(levels, dtype=torch.long, device=self.device)
+        if levels.shape != self.levels.shape:
+            raise ValueError(f"terrain levels for {tuple(levels.shape)} envs, this curriculum has "
+                             f"{tuple(self.levels.shape)}")
+        if len(levels) and not (0 <= int(levels.min()) and int(levels.max()) < self.num_levels):
+            raise ValueError(f"terrain levels must be in [0, {self.num_levels - 1}], got {int(levels.min())}.."
+                             f"{int(levels.max())}")
+        self.levels = levels
+        self.origins = self.tile_origins[levels, self.cols]
+
     def mean_level(self) -> torch.Tensor:
         """Mean level over all envs (a 0-d tensor, for logging)."""
         return self.levels.float().mean()

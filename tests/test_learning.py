@@ -23,9 +23,10 @@ STEPS = 8
 
 
 def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
-                max_samples=2048, **env_kw):
+                max_samples=2048, contrast=None, privileged_slices=None, **env_kw):
     torch.manual_seed(seed)
-    cfg = LearnerConfig(num_steps_per_env=STEPS, contrast=ContrastConfig(variant=variant, max_samples=max_samples),
+    cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=privileged_slices or {},
+                        contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches))
     env = env or DummyEnv(num_envs, seed=seed, **env_kw)
     return OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu"), env
@@ -114,6 +115,28 @@ def test_stop_gradient():
         assert torch.count_nonzero(getattr(alg.actor.rnn.rnn, name).grad) > 0
     for head in (alg.heads.source, alg.heads.target):
         assert all(torch.count_nonzero(p.grad) > 0 for p in head.parameters())
+
+
+def test_contrast_target_without_the_actor_observation():
+    """target_actor_obs=False: MLP_T sees s_t without the actor observation's columns, so the InfoNCE loss does
+    not move when only those change, and moves when any other privileged column does."""
+    actor_cols = (95, 179)  # where cra-train's layout puts the noise-free actor observation (last)
+    runner, env = make_runner(contrast={"target_actor_obs": False}, privileged_slices={"observation": actor_cols})
+    alg = runner.alg
+    assert alg.heads.target[0].in_features == 32 + 179 - 84  # u_t + s_t without the 84 actor columns
+    collect(alg, env, STEPS)
+    batch = next(alg.storage.recurrent_mini_batch_generator(2, 1))
+    alg.actor(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[0])
+    alg.critic(batch.observations, masks=batch.masks, hidden_state=batch.hidden_states[1])
+    base = alg.contrastive_loss(batch.masks)[0].item()
+    s = alg.critic.s_t
+    alg.critic.s_t = s.clone()
+    alg.critic.s_t[..., actor_cols[0]:] = torch.randn_like(s[..., actor_cols[0]:])
+    assert alg.contrastive_loss(batch.masks)[0].item() == pytest.approx(base, abs=1e-6)
+    alg.critic.s_t[..., :3] += 1.0  # base velocity: still part of the target
+    assert abs(alg.contrastive_loss(batch.masks)[0].item() - base) > 1e-4
+    with pytest.raises(ValueError, match="target_actor_obs=False needs"):
+        make_runner(contrast={"target_actor_obs": False})
 
 
 @pytest.mark.parametrize("normalize", [False, True])

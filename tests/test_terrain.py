@@ -277,6 +277,17 @@ def test_curriculum_rejects_bad_init_level(terrain):
         TerrainCurriculum(terrain, 4, max_init_level=10)
 
 
+def test_curriculum_restore_puts_robots_on_their_levels_tiles(terrain):
+    cur = TerrainCurriculum(terrain, 4, max_init_level=0, seed=0)
+    cur.restore([2, 0, 9, 4])
+    assert cur.levels.tolist() == [2, 0, 9, 4]
+    assert torch.equal(cur.origins, cur.tile_origins[torch.tensor([2, 0, 9, 4]), cur.cols])
+    with pytest.raises(ValueError, match="for \\(3,\\) envs"):
+        cur.restore([1, 2, 3])
+    with pytest.raises(ValueError, match="must be in \\[0, 9\\]"):
+        cur.restore([0, 0, 10, 0])
+
+
 # ---------------------------------------------------------------- evaluation course
 def test_eval_course_layout_and_reached():
     course = EvalCourse()

@@ -19,6 +19,7 @@ from train import train as train_cli
     (["--variant", "magic"], "--variant"),
     (["--task", "moon"], "--task"),
     (["--resume", "/nonexistent/model_3.pt"], "no such file"),
+    (["--init", "/nonexistent/model_3.pt"], "--init /nonexistent/model_3.pt: no such file"),
     (["--epochs", "0"], "--epochs"),
     (["--mini-batches", "200"], "--mini-batches"),
     (["--num-envs", "6", "--mini-batches", "4"], "--mini-batches"),
@@ -358,3 +359,38 @@ def test_training_uses_the_curriculum_unless_told_not_to(trained, tmp_path):
     run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
                                                         log_dir=tmp_path, sim="mujoco", curriculum=False))
     assert not runner.env.difficulty.active and float(runner.env.difficulty.level) == 1.0
+
+
+def test_init_forks_a_checkpoints_networks_into_a_new_run(trained, tmp_path, capsys):
+    """--init: another variant starts from the checkpoint's actor and critic at iteration 0 with a fresh optimizer
+    (no contrastive heads to carry over); --init with --resume is refused."""
+    first, _ = trained
+    src = torch.load(first / "model_1.pt", weights_only=False)
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
+                                                        log_dir=tmp_path, sim="mujoco", variant="no_contrast",
+                                                        init=first / "model_1.pt", save_interval=1))
+    assert runner.alg.heads is None
+    forked = torch.load(run_dir / "model_0.pt", weights_only=False)
+    assert forked["iter"] == 0 and "contrast_state_dict" not in forked
+    # the observation normalisers went on counting from the checkpoint's: one iteration of 4 robots x 24 steps
+    for model in ("actor_state_dict", "critic_state_dict"):
+        assert int(forked[model]["obs_normalizer.count"]) == int(src[model]["obs_normalizer.count"]) + 4 * 24
+    one_line_error(capsys, train_cli.main(["--num-envs", "4", "--log-dir", str(tmp_path), "--init",
+                                           str(first / "model_1.pt"), "--resume", str(first / "model_1.pt")]),
+                   "exclude each other")
+
+
+def test_resume_keeps_each_robots_terrain_level(tmp_path):
+    """Rough runs store every robot's terrain level; --resume puts them back instead of starting the terrain
+    curriculum again."""
+    args = dict(num_envs=4, max_iterations=1, export=False, quiet=True, log_dir=tmp_path, sim="mujoco",
+                task="rough", save_interval=1)
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(**args))
+    levels = torch.tensor([3, 0, 5, 1])
+    runner.env.ground.curriculum.restore(levels)
+    runner.save(str(run_dir / "model_7.pt"))
+    assert torch.load(run_dir / "model_7.pt", weights_only=False)["infos"]["terrain_levels"] == [3, 0, 5, 1]
+    _, resumed = train_cli.run(train_cli.TrainArgs(**{**args, "max_iterations": 1},
+                                                   resume=run_dir / "model_7.pt"))
+    # one iteration (24 steps) ends no episode of a standing robot: the levels are the restored ones
+    assert torch.equal(resumed.env.ground.curriculum.levels.cpu(), levels)

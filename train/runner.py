@@ -68,6 +68,9 @@ class CraRunner(OnPolicyRunner):
         state = {}
         if hasattr(self.env, "difficulty"):  # the curriculum's level: a resumed run continues where it was
             state["difficulty_level"] = float(self.env.difficulty.level)
+        curriculum = getattr(getattr(self.env, "ground", None), "curriculum", None)
+        if curriculum is not None:  # and each robot's terrain level
+            state["terrain_levels"] = curriculum.levels.tolist()
         super().save(tmp, {**self.run_info, **state, **(infos or {})})
         os.replace(tmp, path)
 

@@ -4,6 +4,7 @@
     cra-train --num-envs 4096 --device cuda:0 --task rough --max-iterations 10000
     cra-train --resume runs/<run>/model_40.pt --max-iterations 40   # continues at iteration 41
     cra-train --resume runs/ --log-dir runs/ ...                     # the newest checkpoint under runs/ (campaigns)
+    cra-train --task rough --init runs/<flat run>/model_2800.pt      # a new run from a flat walker's networks
     torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
 
 Variants (paper IV-A): ours (same-step contrast, adaptive clock), sequential (contrast with the next step),
@@ -39,6 +40,10 @@ class TrainArgs:
     # checkpoint to continue from (iteration count and optimizer state); a directory: its newest model_<it>.pt
     # (highest iteration, then newest run), so a campaign restarts with the same command
     resume: Path | None = None
+    # checkpoint whose actor and critic (with their normalisers; a shipped policy has the actor only) this run
+    # starts from, at iteration 0 with a fresh optimizer and contrastive heads: a fork into another task or variant
+    # (the rough task from a flat walker, an ablation from the same start); its curriculum levels carry over
+    init: Path | None = None
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
     epochs: int = 2                    # PPO epochs per iteration (tools/results/ab_epochs*.json)
@@ -82,6 +87,11 @@ def validate(a: TrainArgs) -> None:
         a.resume = newest_checkpoint(a.resume)
     if a.resume is not None and not a.resume.is_file():
         raise UsageError(f"--resume {a.resume}: no such file")
+    if a.init is not None and a.resume is not None:
+        raise UsageError("--init and --resume exclude each other (--init starts a new run from a checkpoint's "
+                         "networks, --resume continues one)")
+    if a.init is not None and not a.init.is_file():
+        raise UsageError(f"--init {a.init}: no such file")
     check_sim(a.sim, a.device)
     check_device(a.device)
 
@@ -159,7 +169,7 @@ def run(a: TrainArgs):
 
     from cra_warp.config_io import with_overrides
     from cra_warp.host_memory import keep_freed_memory
-    from cra_warp.learning.checkpoint import load_checkpoint
+    from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
     from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
@@ -209,12 +219,26 @@ def run(a: TrainArgs):
     if rank == 0:  # the whole resolved configuration, beside the logs (every checkpoint carries it too)
         run_dir.mkdir(parents=True, exist_ok=True)
         write_json(run_dir / "config.json", config, indent=2)
+    infos = None
     if a.resume is not None:
         check_resume(a.resume, env, learner, rank)
         infos = load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
-        if "difficulty_level" in (infos or {}):
-            env.difficulty.level.fill_(infos["difficulty_level"])
+    elif a.init is not None:
+        check_resume(a.init, env, learner, rank)
+        has_critic = "critic_state_dict" in read_checkpoint(a.init)
+        if not has_critic and rank == 0:  # a shipped policy keeps its actor only
+            print(f"cra-train: {a.init} has no critic: the critic starts fresh", file=sys.stderr)
+        infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic})
+    if "difficulty_level" in (infos or {}):
+        env.difficulty.level.fill_(infos["difficulty_level"])
+    if "terrain_levels" in (infos or {}) and env.ground.curriculum is not None:
+        saved = infos["terrain_levels"]
+        if len(saved) == a.num_envs:
+            env.ground.curriculum.restore(saved)
+        elif rank == 0:
+            print(f"cra-train: {len(saved)} terrain levels saved for {a.num_envs} robots: the terrain curriculum "
+                  "starts again", file=sys.stderr)
     torch.set_num_threads(threads)
     runner.learn(a.max_iterations)
     if rank == 0 and a.export:

@@ -121,6 +121,10 @@ class ContrastConfig:
     # (~0.8 TFLOP); K = 2048 costs ~0.13 TFLOP and still gives 2047 negatives per positive. Below N=342 (with
     # 24 steps, 4 mini-batches) the whole mini-batch is used anyway.
     max_samples: int = 2048
+    # MLP_T's s_t with the noise-free actor observation that the privileged group carries (the paper's s_t) or
+    # without it. With it InfoNCE can pair I_S and I_T on proprioception alone (top-1 1.00 within ~10 iterations
+    # on flat ground); without it only the privileged state and the terrain (u_t, the foot maps) are left to match.
+    target_actor_obs: bool = True
 
     def __post_init__(self):
         if self.variant not in CONTRAST_VARIANTS:
@@ -244,5 +248,7 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
         },
         "algorithm": {"class_name": ALGORITHM_CLASS, **asdict(p), "optimizer": "adam", "rnd_cfg": None,
                       "symmetry_cfg": None, "contrast_cfg": asdict(cfg.contrast),
+                      "actor_obs_slice": list(cfg.privileged_slices["observation"])
+                      if "observation" in cfg.privileged_slices else None,
                       "representation_weight": representation_weight},
     }

@@ -71,17 +71,28 @@ class CRAPPO(PPO):
     """
 
     def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
-                 representation_weight: float = 1.0, **kwargs) -> None:
+                 representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
+                 **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
         cfg = contrast_cfg if isinstance(contrast_cfg, ContrastConfig) else ContrastConfig(**(contrast_cfg or {}))
         self.contrast_cfg = cfg
         self.heads: ContrastiveHeads | None = None
+        self.target_columns: torch.Tensor | None = None  # columns of s_t that MLP_T sees (None: all)
         terms = []
         if cfg.variant != "none":
             if not isinstance(actor, CRAActor) or not isinstance(critic, CRACritic):
                 raise TypeError(f"the contrastive variant {cfg.variant!r} needs CRAActor and CRACritic models, "
                                 f"got {type(actor).__name__} and {type(critic).__name__}")
-            self.heads = ContrastiveHeads(actor.latent_dim, critic.cnn_latent_dim, critic.obs_dim, cfg.embed_dim,
+            target_dim = critic.obs_dim
+            if not cfg.target_actor_obs:
+                if actor_obs_slice is None or not 0 <= actor_obs_slice[0] < actor_obs_slice[1] <= critic.obs_dim:
+                    raise ValueError(f"contrast target_actor_obs=False needs the actor observation's [start, stop) "
+                                     f"in the critic's s_t (width {critic.obs_dim}), got {actor_obs_slice}")
+                keep = torch.ones(critic.obs_dim, dtype=torch.bool)
+                keep[actor_obs_slice[0]:actor_obs_slice[1]] = False
+                self.target_columns = keep.nonzero().squeeze(-1).to(self.device)
+                target_dim = len(self.target_columns)
+            self.heads = ContrastiveHeads(actor.latent_dim, critic.cnn_latent_dim, target_dim, cfg.embed_dim,
                                           cfg.hidden_dims, cfg.activation).to(self.device)
             self.optimizer.add_param_group({"params": list(self.heads.parameters()), "lr": self.learning_rate})
             terms.append((cfg.weight, self._contrast_term))
@@ -99,6 +110,8 @@ class CRAPPO(PPO):
     def contrastive_loss(self, masks: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor, int]:
         """InfoNCE on the features of the last actor and critic forward; (loss, top-1 accuracy, samples K)."""
         m_a, u, s = self._raw_actor.latent, self._raw_critic.u_t, self._raw_critic.s_t  # [T, B, ..] in update
+        if self.target_columns is not None:
+            s = s.index_select(-1, self.target_columns)
         episodes = episode_ids(masks) if masks is not None else None                    # [T, B]
         m_a, u, s = contrast_pairs(self.contrast_cfg.variant, m_a, u, s, episodes)     # [K, ..]
         m_a, u, s = subsample(self.contrast_cfg.max_samples, m_a, u, s)
