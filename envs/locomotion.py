@@ -425,7 +425,8 @@ class LocoEnv(VecEnv):
         self.world.base_force[:, :3] *= ~over.unsqueeze(-1)
 
     def randomize_physics(self, ids: torch.Tensor):
-        """Sample mass, base CoM, motor strength and friction for ``ids`` and hand them to the solver."""
+        """Sample mass, base CoM, actuators (strength, gains, rotor inertia) and friction for ``ids`` and hand them to
+        the solver."""
         rd, n, B, J = self.cfg.randomization, len(ids), self.world.num_bodies, self.robot.num_joints
         if not rd.enabled:
             return
@@ -444,6 +445,7 @@ class LocoEnv(VecEnv):
         self.kp_scale[ids] = around(*rd.kp_scale, n, J)
         self.kd_scale[ids] = around(*rd.kd_scale, n, J)
         self.world.set_actuators(ids, self.motor_strength[ids], self.kp_scale[ids], self.kd_scale[ids])
+        self.world.set_armature(ids, around(*rd.armature_scale, n, J))
         self.friction[ids] = around(*rd.friction, n, nominal=self.cfg.world.friction)
         self.world.set_friction(ids, self.friction[ids])
         self.world.commit_physics()

@@ -55,6 +55,17 @@ def test_clock_free_variant_has_79_inputs_and_23_actions():
     assert torch.isfinite(rew).all()
 
 
+def test_randomised_rotor_inertia_reaches_the_solver():
+    rd = DomainRandConfig(armature_scale=(0.5, 2.0), push_interval=1e9, force_max=0.0)
+    e = LocoEnv(LocoConfig(num_envs=4, device=DEVICE, randomization=rd))
+    scale = e.world.joint_armature / ADAM_LITE.armature
+    assert scale.min() >= 0.5 - 1e-5 and scale.max() <= 2.0 + 1e-5 and scale.std() > 0.2
+    solver = e.world.solver.mjw_model.dof_armature.numpy()  # [N, base dofs + joints]
+    assert torch.allclose(torch.as_tensor(solver[:, 6:]), e.world.joint_armature.cpu(), rtol=1e-6)
+    with pytest.raises(ValueError, match="randomization.armature_scale must be a range"):
+        DomainRandConfig(armature_scale=(2.0, 1.0))
+
+
 def test_randomised_parameters_in_range_and_in_the_sim(env):
     rd = env.cfg.randomization
     assert (env.motor_strength >= rd.motor_strength[0]).all() and (env.motor_strength <= rd.motor_strength[1]).all()

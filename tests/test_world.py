@@ -194,6 +194,31 @@ def test_friction_per_world(world):
     assert slide[0] > 0.05 and slide[0] > 5 * slide[1:].max()
 
 
+def test_rotor_inertia_per_world_slows_the_joints_alike_on_both_engines():
+    """5x the armature in world 1: in the air, under the same PD step, its ankles (light links, where the rotor
+    inertia dominates) move less than half as far in one control step; world 2 (nominal) moves exactly as world 0;
+    and both engines agree on how much each joint is slowed."""
+    ratios = {}
+    for backend in ("newton", "mujoco"):
+        w = make_world(ADAM_LITE, WorldConfig(num_envs=3, backend=backend, device=device_for(backend)))
+        d, J = w.joint_pos.device, ADAM_LITE.num_joints
+        w.set_armature(torch.tensor([1], device=d), torch.full((1, J), 5.0, device=d))
+        w.commit_physics()
+        assert torch.allclose(w.joint_armature[1], 5 * torch.tensor(ADAM_LITE.armature, device=d).expand(J))
+        q = w.default_joint_q.clone()
+        q[:, 2] = 3.0  # in the air: no contacts
+        w.reset(torch.arange(3, device=d), joint_q=q)
+        w.joint_target.copy_(w.joint_pos + 0.3)
+        q0 = w.joint_pos.clone()
+        w.step()
+        moved = (w.joint_pos - q0).abs()
+        assert torch.equal(moved[2], moved[0])
+        ratios[backend] = (moved[1] / moved[0]).cpu()
+        for ankle in ("ankleRoll_Left", "ankleRoll_Right"):
+            assert ratios[backend][ADAM_LITE.joint_names.index(ankle)] < 0.5
+    assert torch.allclose(ratios["newton"], ratios["mujoco"], atol=1e-3)
+
+
 def test_all_bodies_colliding_with_the_ground_still_stand(backend):
     """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
     w = make_world(ADAM_LITE, WorldConfig(num_envs=2, contacts="all", backend=backend, device=device_for(backend)))

@@ -94,8 +94,8 @@ class World(Protocol):
       body_pos [N, B, 3], body_quat [N, B, 4], body_lin_vel / body_ang_vel [N, B, 3];
       foot_forces [N, F, 3] (total contact force on each foot, last physics step);
       base_force [N, 6] (external wrench on the base CoM, applied at every physics step until changed);
-      body_mass [N, B], body_com [N, B, 3], joint_kp / joint_kd / joint_effort_limit [N, J]: the current
-      per-world parameters (change them through the set_* methods only).
+      body_mass [N, B], body_com [N, B, 3], joint_kp / joint_kd / joint_effort_limit / joint_armature [N, J]: the
+      current per-world parameters (change them through the set_* methods only).
     """
 
     robot: RobotConfig
@@ -126,6 +126,7 @@ class World(Protocol):
     joint_kp: torch.Tensor
     joint_kd: torch.Tensor
     joint_effort_limit: torch.Tensor
+    joint_armature: torch.Tensor
 
     def step(self) -> None: ...
     def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,
@@ -136,5 +137,6 @@ class World(Protocol):
     def set_base_com_offset(self, env_ids: torch.Tensor, offset: torch.Tensor) -> None: ...
     def set_actuators(self, env_ids: torch.Tensor, strength: torch.Tensor, kp_scale: torch.Tensor | None = None,
                       kd_scale: torch.Tensor | None = None) -> None: ...
+    def set_armature(self, env_ids: torch.Tensor, scale: torch.Tensor) -> None: ...
     def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor) -> None: ...
     def commit_physics(self) -> None: ...

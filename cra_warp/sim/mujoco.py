@@ -116,9 +116,10 @@ class MujocoWorld:
         self.joint_kp = torch.tensor(base.actuator_gainprm[:, 0], **f32).repeat(N, 1)
         self.joint_kd = torch.tensor(-base.actuator_biasprm[:, 2], **f32).repeat(N, 1)
         self.joint_effort_limit = torch.tensor(base.jnt_actfrcrange[1:, 1], **f32).repeat(N, 1)
+        self.joint_armature = torch.tensor(base.dof_armature[FREE_QD:], **f32).repeat(N, 1)
         self._friction = torch.full((N,), float(base.geom_friction[self._robot_geoms[0], 0]), **f32)
         self._nominal = {k: getattr(self, k).clone() for k in
-                         ("body_mass", "body_com", "joint_kp", "joint_kd", "joint_effort_limit")}
+                         ("body_mass", "body_com", "joint_kp", "joint_kd", "joint_effort_limit", "joint_armature")}
         self._dirty = torch.zeros(N, dtype=torch.bool)
         self.windows = None  # every terrain box is in the model
 
@@ -267,6 +268,12 @@ class MujocoWorld:
         self.joint_effort_limit[ids] = self._nominal["joint_effort_limit"][ids] * strength
         self._dirty[ids] = True
 
+    def set_armature(self, env_ids: torch.Tensor, scale: torch.Tensor):
+        """Rotor inertia of every driven joint of the given worlds: ``scale`` [n, J] x the robot's armature."""
+        ids = env_ids.cpu()
+        self.joint_armature[ids] = self._nominal["joint_armature"][ids] * scale.cpu()
+        self._dirty[ids] = True
+
     def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor):
         """Friction coefficient [n] of every robot geom in the given worlds (the terrain is frictionless)."""
         ids = env_ids.cpu()
@@ -282,6 +289,7 @@ class MujocoWorld:
         mass, com = self.body_mass.double().numpy(), self.body_com.double().numpy()
         kp, kd = self.joint_kp.double().numpy(), self.joint_kd.double().numpy()
         effort, mu = self.joint_effort_limit.double().numpy(), self._friction.double().numpy()
+        armature = self.joint_armature.double().numpy()
         nominal_mass = self._nominal["body_mass"].double().numpy()
         for i in ids:
             m = self._models[i]
@@ -294,6 +302,7 @@ class MujocoWorld:
             m.jnt_actfrcrange[1:, 0] = -effort[i]
             m.jnt_actfrcrange[1:, 1] = effort[i]
             m.geom_friction[geoms, 0] = mu[i]
+            m.dof_armature[FREE_QD:] = armature[i]
             mujoco.mj_setConst(m, self._datas[0])  # derived constants (body subtree masses, inverse weights)
         self._dirty[:] = False
 

@@ -210,8 +210,10 @@ class NewtonWorld:
         self.joint_kp = t(self.model.joint_target_ke).view(N, -1)[:, FREE_QD:]
         self.joint_kd = t(self.model.joint_target_kd).view(N, -1)[:, FREE_QD:]
         self.joint_effort_limit = t(self.model.joint_effort_limit).view(N, -1)[:, FREE_QD:]
+        self.joint_armature = t(self.model.joint_armature).view(N, -1)[:, FREE_QD:]
         self._nominal = {k: getattr(self, k).clone() for k in
-                         ("body_mass", "body_com", "body_inertia", "joint_kp", "joint_kd", "joint_effort_limit")}
+                         ("body_mass", "body_com", "body_inertia", "joint_kp", "joint_kd", "joint_effort_limit",
+                          "joint_armature")}
         shape_body = self.model.shape_body.numpy()
         self._robot_shapes = torch.as_tensor(np.flatnonzero(shape_body >= 0).reshape(N, -1))  # [N, S] world-major
         # The constraint solver starts from the previous step's accelerations; a reset world must not inherit them,
@@ -338,6 +340,11 @@ class NewtonWorld:
         self.joint_kd[env_ids] = self._nominal["joint_kd"][env_ids] * strength * kd_scale
         self.joint_effort_limit[env_ids] = self._nominal["joint_effort_limit"][env_ids] * strength
         self._changed |= int(newton.ModelFlags.JOINT_DOF_PROPERTIES | newton.ModelFlags.ACTUATOR_PROPERTIES)
+
+    def set_armature(self, env_ids: torch.Tensor, scale: torch.Tensor):
+        """Rotor inertia of every driven joint of the given worlds: ``scale`` [n, J] x the robot's armature."""
+        self.joint_armature[env_ids] = self._nominal["joint_armature"][env_ids] * scale
+        self._changed |= int(newton.ModelFlags.JOINT_DOF_INERTIAL_PROPERTIES)
 
     def set_friction(self, env_ids: torch.Tensor, mu: torch.Tensor):
         """Friction coefficient [n] of every robot shape in the given worlds (the terrain is frictionless: see build)."""
