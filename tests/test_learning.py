@@ -25,10 +25,11 @@ STEPS = 8
 def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
                 max_samples=2048, contrast=None, privileged_slices=None, **env_kw):
     torch.manual_seed(seed)
-    cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=privileged_slices or {},
+    env = env or DummyEnv(num_envs, seed=seed, **env_kw)
+    slices = env.privileged_slices if privileged_slices is None else privileged_slices
+    cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=slices,
                         contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches))
-    env = env or DummyEnv(num_envs, seed=seed, **env_kw)
     return OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu"), env
 
 
@@ -121,7 +122,7 @@ def test_contrast_target_without_the_actor_observation():
     """target_actor_obs=False: MLP_T sees s_t without the actor observation's columns, so the InfoNCE loss does
     not move when only those change, and moves when any other privileged column does."""
     actor_cols = (95, 179)  # where cra-train's layout puts the noise-free actor observation (last)
-    runner, env = make_runner(contrast={"target_actor_obs": False}, privileged_slices={"observation": actor_cols})
+    runner, env = make_runner(privileged_slices={"observation": actor_cols})  # the default target
     alg = runner.alg
     assert alg.heads.target[0].in_features == 32 + 179 - 84  # u_t + s_t without the 84 actor columns
     collect(alg, env, STEPS)
@@ -136,7 +137,7 @@ def test_contrast_target_without_the_actor_observation():
     alg.critic.s_t[..., :3] += 1.0  # base velocity: still part of the target
     assert abs(alg.contrastive_loss(batch.masks)[0].item() - base) > 1e-4
     with pytest.raises(ValueError, match="target_actor_obs=False needs"):
-        make_runner(contrast={"target_actor_obs": False})
+        make_runner(privileged_slices={})
 
 
 @pytest.mark.parametrize("normalize", [False, True])
@@ -210,8 +211,10 @@ def test_runner_learn_logs_infonce(tmp_path):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
     torch.manual_seed(0)
-    cfg = LearnerConfig(num_steps_per_env=STEPS, ppo=PPOConfig(num_learning_epochs=1, num_mini_batches=2))
-    runner = OnPolicyRunner(DummyEnv(4), runner_cfg(cfg), log_dir=str(tmp_path), device="cpu")
+    env = DummyEnv(4)
+    cfg = LearnerConfig(num_steps_per_env=STEPS, ppo=PPOConfig(num_learning_epochs=1, num_mini_batches=2),
+                        privileged_slices=env.privileged_slices)
+    runner = OnPolicyRunner(env, runner_cfg(cfg), log_dir=str(tmp_path), device="cpu")
     runner.learn(1)
     events = EventAccumulator(str(tmp_path))
     events.Reload()
@@ -333,7 +336,8 @@ def test_real_env_update_and_export(tmp_path):
     from envs.loco_config import LocoConfig
 
     env = LocoEnv(LocoConfig(num_envs=4))
-    runner, _ = make_runner(env=env, mini_batches=2)
+    actor = env.priv_layout["actor"]
+    runner, _ = make_runner(env=env, mini_batches=2, privileged_slices={"observation": (actor.start, actor.stop)})
     obs = env.get_observations()
     assert obs["policy"].shape == (4, 84) and obs["privileged"].shape == (4, 179 + 2 * 23)  # + PD gain scales
     assert obs["height_map"].shape == (4, 1, 17, 11)

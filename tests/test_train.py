@@ -394,3 +394,13 @@ def test_resume_keeps_each_robots_terrain_level(tmp_path):
                                                    resume=run_dir / "model_7.pt"))
     # one iteration (24 steps) ends no episode of a standing robot: the levels are the restored ones
     assert torch.equal(resumed.env.ground.curriculum.levels.cpu(), levels)
+
+
+def test_resume_refuses_contrastive_heads_built_for_another_target(trained, capsys):
+    """The default target leaves the actor observation out; a run trained that way resumed with it in would need
+    heads of another shape: one line naming the override that matches the checkpoint."""
+    first, _ = trained
+    one_line_error(capsys, train_cli.main(["--num-envs", "4", "--max-iterations", "1", "--no-export", "--quiet",
+                                           "--log-dir", str(first.parent), "--resume", str(first / "model_1.pt"),
+                                           "--override", "learner.contrast.target_actor_obs=true"]),
+                   "learner.contrast.target_actor_obs=false")

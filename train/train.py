@@ -129,9 +129,10 @@ def newest_checkpoint(folder: Path) -> Path | None:
     return max(found)[2] if found else None
 
 
-def check_resume(path: Path, env, learner, rank: int) -> None:
+def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> None:
     """A checkpoint resumed into today's run: refused (one line) if the robot or the observation layouts changed
-    since; a PPO setting that differs from the checkpoint's is said on stderr (the CLI's value is used)."""
+    since, or (unless ``fork``: --init, fresh heads) if its contrastive heads were built for another target; a PPO
+    setting that differs from the checkpoint's is said on stderr (the CLI's value is used)."""
     from cra_warp.config_io import to_data
     from cra_warp.learning.checkpoint import read_checkpoint
     from train.runner import _check_against_today
@@ -140,6 +141,10 @@ def check_resume(path: Path, env, learner, rank: int) -> None:
     if stored is None:
         return
     _check_against_today(path, stored, env)
+    target = stored.get("learner", {}).get("contrast", {}).get("target_actor_obs", True)  # (True before the field)
+    if not fork and learner.contrast.variant != "none" and target != learner.contrast.target_actor_obs:
+        raise UsageError(f"{path} was trained with the contrast target {'with' if target else 'without'} the actor "
+                         f"observation: add --override learner.contrast.target_actor_obs={str(target).lower()}")
     then, now = stored.get("learner", {}).get("ppo", {}), to_data(learner.ppo)
     changed = {k: f"{then.get(k)} -> {v}" for k, v in now.items() if then.get(k) != v}
     if changed and rank == 0:
@@ -225,7 +230,7 @@ def run(a: TrainArgs):
         infos = load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     elif a.init is not None:
-        check_resume(a.init, env, learner, rank)
+        check_resume(a.init, env, learner, rank, fork=True)
         has_critic = "critic_state_dict" in read_checkpoint(a.init)
         if not has_critic and rank == 0:  # a shipped policy keeps its actor only
             print(f"cra-train: {a.init} has no critic: the critic starts fresh", file=sys.stderr)

@@ -35,6 +35,8 @@ class DummyEnv(VecEnv):
         self.done_prob = done_prob
         self.gen = torch.Generator(device=self.device).manual_seed(seed)
         self.obs = self._sample()
+        # where the task's layout keeps the base velocity and the noise-free actor observation in "privileged"
+        self.privileged_slices = {"velocity": (0, 3), "observation": (num_privileged - num_obs, num_privileged)}
 
     def _sample(self) -> TensorDict:
         n, (d_o, d_p, (h, w)) = self.num_envs, self.dims
@@ -90,6 +92,7 @@ def learner_benchmark(num_envs: int, steps: int = 24, iterations: int = 2, varia
     cfg.num_steps_per_env = steps
     cfg.contrast.variant = variant
     env = DummyEnv(num_envs, seed=seed, done_prob=done_prob)
+    cfg.privileged_slices = cfg.privileged_slices or env.privileged_slices
     runner = OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu")
     alg = runner.alg
     alg.train_mode()

@@ -121,10 +121,12 @@ class ContrastConfig:
     # (~0.8 TFLOP); K = 2048 costs ~0.13 TFLOP and still gives 2047 negatives per positive. Below N=342 (with
     # 24 steps, 4 mini-batches) the whole mini-batch is used anyway.
     max_samples: int = 2048
-    # MLP_T's s_t with the noise-free actor observation that the privileged group carries (the paper's s_t) or
-    # without it. With it InfoNCE can pair I_S and I_T on proprioception alone (top-1 1.00 within ~10 iterations
-    # on flat ground); without it only the privileged state and the terrain (u_t, the foot maps) are left to match.
-    target_actor_obs: bool = True
+    # MLP_T's s_t with the noise-free actor observation that the privileged group carries (our first reading of
+    # the paper's s_t) or without it. With it InfoNCE pairs I_S and I_T on proprioception alone (top-1 1.00 within
+    # ~10 iterations); without it only the privileged state and the terrain (u_t, the foot maps) are left to
+    # match. Without it, a linear probe finds more terrain in m_a than with it or with no contrast (issue 11 part
+    # 5: 2 seeds each, rough fine-tunes of 500 iterations; tools/results/probe_contrast_seed*.json).
+    target_actor_obs: bool = False
 
     def __post_init__(self):
         if self.variant not in CONTRAST_VARIANTS:
