@@ -1,9 +1,12 @@
 """Terrain curriculum: each env lives on one tile (level, column) and moves up or down a level at its resets.
 
-Rules (batched torch on ``device``, no loop over envs):
-- promote when the robot ended its episode more than half a tile from its origin;
+Rules (batched torch on ``device``, no loop over envs), on the distance a robot walked along its path (PathMeter):
+- promote when it walked more than half a tile in its episode;
 - demote when it covered less than half of the distance its commands asked for over a whole episode (mean
   |cmd_xy| x episode length, as legged_gym): a robot that falls early is demoted;
+legged_gym measures the distance from the origin at the episode's end, which fits heading commands (robots walk
+straight). With yaw-rate commands (commands.heading_mode=false) robots walk arcs and circles back: a fork of the
+flat walker trained that way stayed at level ~1.2 of 10 for 400 iterations while walking its commands.
 - robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
 Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
 """
@@ -63,3 +66,35 @@ class TerrainCurriculum:
     def mean_level(self) -> torch.Tensor:
         """Mean level over all envs (a 0-d tensor, for logging)."""
         return self.levels.float().mean()
+
+
+class PathMeter:
+    """Distance each env's robot walked along its path since its reset [N], as the sum of the chords between its
+    positions every ``window`` control steps: an arc walked on command counts nearly in full (a 1 s chord of a
+    0.5 rad/s turn is 99% of its arc), the gait's sway (periods well under the window) hardly at all."""
+
+    def __init__(self, num_envs: int, window: int, device: str | torch.device = "cpu"):
+        if window < 1:
+            raise ValueError(f"PathMeter window must be >= 1 control step, got {window}")
+        self.window = window
+        self.length = torch.zeros(num_envs, device=device)
+        self.anchor = torch.zeros(num_envs, 2, device=device)
+        self.steps = torch.zeros(num_envs, dtype=torch.long, device=device)
+
+    def reset(self, ids: torch.Tensor, xy: torch.Tensor) -> None:
+        """Envs ``ids`` start again at ``xy`` [n, 2]."""
+        self.length[ids] = 0.0
+        self.anchor[ids] = xy
+        self.steps[ids] = 0
+
+    def update(self, xy: torch.Tensor) -> None:
+        """After every control step, with every robot's position ``xy`` [N, 2]."""
+        self.steps += 1
+        due = self.steps % self.window == 0
+        self.length += torch.where(due, (xy - self.anchor).norm(dim=-1), 0.0)
+        self.anchor = torch.where(due.unsqueeze(-1), xy, self.anchor)
+
+    def walked(self, ids: torch.Tensor, xy: torch.Tensor) -> torch.Tensor:
+        """Distance [n] walked by envs ``ids`` now at ``xy`` [n, 2] (the open chord included)."""
+        return self.length[ids] + (xy - self.anchor[ids]).norm(dim=-1)
+

@@ -17,6 +17,7 @@ from tensordict import TensorDict
 from cra_warp.gait import GaitClock
 from cra_warp.kinematics import Kinematics
 from cra_warp.stand import ScriptedStand
+from cra_warp.terrain_curriculum import PathMeter
 from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
 from cra_warp.sim import make_world
 from envs import observations as obs_layout
@@ -91,7 +92,7 @@ class LocoEnv(VecEnv):
         self.push_timer = z(N)
         self.force_timer = z(N)
         self.episode_sums = {k: z(N) for k in (*TERMS, "termination")}
-        self.start_xy = z(N, 2)
+        self.path = PathMeter(N, window=max(1, round(1.0 / self.dt)), device=self.device)  # the curriculum's measure
         self.commanded_dist = z(N)
         self.nonfinite_resets = 0
 
@@ -317,7 +318,7 @@ class LocoEnv(VecEnv):
         if n == 0:
             return
         if self.episode_length_buf[ids].gt(0).any():
-            walked = (self.root_pos[ids, :2] - self.start_xy[ids]).norm(dim=-1)
+            walked = self.path.walked(ids, self.root_pos[ids, :2])
             # judged against the whole episode at the mean commanded speed: an early fall is a demotion
             lived = self.episode_length_buf[ids].clamp(min=1).float() * self.dt
             expected = self.commanded_dist[ids] / lived * self.cfg.episode_length_s
@@ -332,7 +333,7 @@ class LocoEnv(VecEnv):
         q[:, 3:7] = yaw_quat(yaw0)
         self.randomize_physics(ids)  # before the state: a backend derives the reset state's CoM from them
         self.world.reset(ids, joint_q=q)
-        self.start_xy[ids] = origins[:, :2]
+        self.path.reset(ids, origins[:, :2])
         self.commanded_dist[ids] = 0.0
         self.actions[ids] = 0.0
         self.last_actions[ids] = 0.0
@@ -401,9 +402,10 @@ class LocoEnv(VecEnv):
         self.commands[:, 2] = torch.where(moving, (c.heading_gain * err).clamp(*c.ang_vel_yaw), 0.0)
 
     def _perturb(self):
-        """Pushes and external forces on per-env timers; integrates the commanded distance."""
+        """Pushes and external forces on per-env timers; integrates the commanded and the walked distance."""
         rd = self.cfg.randomization
         self.commanded_dist += self.commands[:, :2].norm(dim=-1) * self.dt
+        self.path.update(self.root_pos[:, :2])
         if not rd.enabled:
             return
         # masked updates (drawn for every env, applied where due): no host sync in the step

@@ -215,7 +215,7 @@ def test_an_early_fall_is_demoted_by_the_whole_episode_distance():
     cur.levels[:] = 2
     env.episode_length_buf[:] = int(1.0 / env.dt)
     env.commanded_dist[:] = 1.0
-    env.start_xy[:] = env.root_pos[:, :2] - torch.tensor([0.6, 0.0], device=env.device)
+    env.path.reset(torch.arange(2), env.root_pos[:, :2] - torch.tensor([0.6, 0.0], device=env.device))
     env.reset_idx(torch.tensor([0], device=env.device))
     assert cur.levels.tolist() == [1, 2]
 

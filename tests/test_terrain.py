@@ -13,7 +13,7 @@ from cra_warp.terrain import TERRAIN_TYPES, TerrainConfig, column_types, generat
 from cra_warp.terrain_boxes import box_surface, rectangles, terrain_boxes
 from cra_warp.rotations import yaw_quat
 from cra_warp.terrain_course import EVAL_KINDS, EvalCourse, EvalCourseConfig
-from cra_warp.terrain_curriculum import TerrainCurriculum
+from cra_warp.terrain_curriculum import PathMeter, TerrainCurriculum
 from cra_warp.terrain_sampling import HeightSampler, bench_height_maps, heading_xy
 
 
@@ -275,6 +275,26 @@ def test_curriculum_wrap_spreads_over_levels(terrain):
 def test_curriculum_rejects_bad_init_level(terrain):
     with pytest.raises(ValueError, match="max_init_level"):
         TerrainCurriculum(terrain, 4, max_init_level=10)
+
+
+def test_path_meter_counts_a_walked_circle_and_not_the_sway():
+    """50 Hz for 20 s: robot 0 walks a 0.5 m/s circle of radius 1 m with a 2 cm, 2 Hz sideways sway (it ends near
+    its start: legged_gym's displacement would give it nothing); robot 1 only sways on the spot."""
+    dt, steps = 0.02, 1000
+    meter = PathMeter(2, window=50)
+    meter.reset(torch.arange(2), torch.tensor([[1.0, 0.0], [0.0, 0.0]]))
+    for k in range(1, steps + 1):
+        t = k * dt
+        sway = 0.02 * math.sin(2 * math.pi * 2 * t)
+        a = 0.5 * t  # rad: 0.5 m/s on a 1 m radius
+        circle = [(1 + sway) * math.cos(a), (1 + sway) * math.sin(a)]
+        xy = torch.tensor([circle, [0.0, sway]])
+        meter.update(xy)
+    walked = meter.walked(torch.arange(2), xy)
+    assert walked[0] == pytest.approx(0.5 * steps * dt, rel=0.03)  # 10 m along the circle
+    assert walked[1] < 0.1
+    with pytest.raises(ValueError, match="window"):
+        PathMeter(2, window=0)
 
 
 def test_curriculum_restore_puts_robots_on_their_levels_tiles(terrain):
