@@ -202,6 +202,22 @@ def test_play_holds_a_given_command(capsys):
     assert rmse == pytest.approx(0.4, abs=0.1)   # plus what the stand sways while it settles
 
 
+def test_play_nominal_turns_the_randomisation_off(monkeypatch):
+    """--nominal: the robots play without randomised physics, pushes or shoves; without it, the training's."""
+    import envs.locomotion as loco
+
+    seen, build = [], loco.LocoEnv.__init__
+
+    def spy(self, cfg):
+        seen.append(cfg.randomization.enabled)
+        build(self, cfg)
+
+    monkeypatch.setattr(loco.LocoEnv, "__init__", spy)
+    common = ["--agent", "stand", "--num-envs", "2", "--steps", "3", "--sim", "mujoco"]
+    assert play_cli.main([*common, "--nominal"]) == 0 and play_cli.main(common) == 0
+    assert seen == [False, True]
+
+
 def test_play_rejects_a_non_finite_command(capsys):
     one_line_error(capsys, play_cli.main(["--agent", "stand", "--command", "nan", "0"]), "--command")
 

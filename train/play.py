@@ -37,6 +37,8 @@ class PlayArgs:
     video: Path | None = None          # write robot 0's rollout as a GIF here (25 frames/s, a tracking camera)
     seed: int = 0
     command: tuple[float, float] | None = None  # hold (v_x, v_y) [m/s], heading 0 (yaw rate 0 without heading mode)
+    # nominal robots: no randomised physics, pushes or shoves (as in cra-eval's trials); default: the training's
+    nominal: bool = False
 
 
 def make_agent(a: PlayArgs, env):
@@ -55,11 +57,13 @@ def run(a: PlayArgs) -> dict:
     import torch
 
     from cra_warp.host_memory import keep_freed_memory
-    from envs.loco_config import LocoConfig
+    from envs.loco_config import DomainRandConfig, LocoConfig
     from envs.locomotion import LocoEnv
 
     keep_freed_memory()
     overrides = {"terrain": a.task} if a.task else {}
+    if a.nominal:
+        overrides["randomization"] = DomainRandConfig(enabled=False)
     # the viewer draws static shapes once: every world holds the whole course, not a window
     whole_course = a.usd is not None
     if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
