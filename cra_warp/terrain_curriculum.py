@@ -92,7 +92,8 @@ class PathMeter:
         self.steps += 1
         due = self.steps % self.window == 0
         self.length += torch.where(due, (xy - self.anchor).norm(dim=-1), 0.0)
-        self.anchor = torch.where(due.unsqueeze(-1), xy, self.anchor)
+        self.anchor.copy_(torch.where(due.unsqueeze(-1), xy, self.anchor))  # in place: stays a normal tensor when
+        # written under rsl-rl's inference mode
 
     def walked(self, ids: torch.Tensor, xy: torch.Tensor) -> torch.Tensor:
         """Distance [n] walked by envs ``ids`` now at ``xy`` [n, 2] (the open chord included)."""
