@@ -4,11 +4,11 @@ Rules (batched torch on ``device``, no loop over envs), on the distance a robot 
 - promote when it walked more than half a tile in its episode;
 - demote when it covered less than half of the distance its commands asked for over a whole episode (mean
   |cmd_xy| x episode length, as legged_gym): a robot that falls early is demoted;
-legged_gym measures the distance from the origin at the episode's end, which fits heading commands (robots walk
-straight). With yaw-rate commands (commands.heading_mode=false) robots walk arcs and circles back: a fork of the
-flat walker trained that way stayed at level ~1.2 of 10 for 400 iterations while walking its commands.
 - robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
 Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
+legged_gym measures the distance from the origin at the episode's end, which fits heading commands (robots walk
+straight). With yaw-rate commands (commands.heading_mode=false) robots walk arcs and circle back: a fork of the
+flat walker trained that way stayed at level ~1.2 (of 0-9) for 300 iterations while walking its commands.
 """
 
 from __future__ import annotations

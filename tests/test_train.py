@@ -408,8 +408,9 @@ def test_resume_keeps_each_robots_terrain_level(tmp_path):
     assert torch.load(run_dir / "model_7.pt", weights_only=False)["infos"]["terrain_levels"] == [3, 0, 5, 1]
     _, resumed = train_cli.run(train_cli.TrainArgs(**{**args, "max_iterations": 1},
                                                    resume=run_dir / "model_7.pt"))
-    # one iteration (24 steps) ends no episode of a standing robot: the levels are the restored ones
-    assert torch.equal(resumed.env.ground.curriculum.levels.cpu(), levels)
+    # an episode that ends in the resumed iteration moves its robot one level at most; a fresh curriculum would
+    # have every robot on level 0
+    assert (resumed.env.ground.curriculum.levels.cpu() - levels).abs().max() <= 1
 
 
 def test_resume_refuses_contrastive_heads_built_for_another_target(trained, capsys):

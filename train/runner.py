@@ -100,7 +100,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     """
     from cra_warp.config_io import from_data
     from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
-    from cra_warp.learning.config import LearnerConfig, runner_cfg
+    from cra_warp.learning.config import LearnerConfig, runner_cfg, stored_target_actor_obs
     from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
     from train.cli import VARIANTS
@@ -111,8 +111,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
         if stored is not None:
             env_cfg = from_data(LocoConfig, stored["env"])
             learner = from_data(LearnerConfig, stored["learner"])
-            if "target_actor_obs" not in stored["learner"].get("contrast", {}):  # trained before the field: with it
-                learner.contrast = dataclasses.replace(learner.contrast, target_actor_obs=True)
+            learner.contrast = dataclasses.replace(learner.contrast,
+                                                   target_actor_obs=stored_target_actor_obs(stored["learner"]))
         else:  # written before runs stored their configuration: variant and task only, today's defaults
             variant = info.get("variant", "ours")
             if variant not in VARIANTS:
@@ -120,7 +120,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
             env_variant, contrast, kind = VARIANTS[variant]
             env_cfg = LocoConfig(variant=env_variant, terrain=info.get("task", "flat"))
             learner = LearnerConfig()
-            learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, target_actor_obs=True)
+            learner.contrast = dataclasses.replace(learner.contrast, variant=contrast,
+                                                   target_actor_obs=stored_target_actor_obs({}))
             learner.actor = dataclasses.replace(learner.actor, kind=kind)
             sim = sim or info.get("sim", "newton")
         world = dataclasses.replace(env_cfg.world, threads=0)  # rollout threads: this machine's, not the run's

@@ -135,13 +135,14 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
     setting that differs from the checkpoint's is said on stderr (the CLI's value is used)."""
     from cra_warp.config_io import to_data
     from cra_warp.learning.checkpoint import read_checkpoint
+    from cra_warp.learning.config import stored_target_actor_obs
     from train.runner import _check_against_today
 
     stored = (read_checkpoint(path).get("infos") or {}).get("config")
     if stored is None:
         return
     _check_against_today(path, stored, env)
-    target = stored.get("learner", {}).get("contrast", {}).get("target_actor_obs", True)  # (True before the field)
+    target = stored_target_actor_obs(stored.get("learner", {}))
     if not fork and learner.contrast.variant != "none" and target != learner.contrast.target_actor_obs:
         raise UsageError(f"{path} was trained with the contrast target {'with' if target else 'without'} the actor "
                          f"observation: add --override learner.contrast.target_actor_obs={str(target).lower()}")

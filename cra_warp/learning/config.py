@@ -195,6 +195,12 @@ class LearnerConfig:
     torch_compile_mode: str | None = None
 
 
+def stored_target_actor_obs(stored_learner: dict) -> bool:
+    """ContrastConfig.target_actor_obs of a run's stored learner config; runs stored before the field had the actor
+    observation in the target."""
+    return bool(stored_learner.get("contrast", {}).get("target_actor_obs", True))
+
+
 def bf16_supported(device: str) -> bool:
     """Native bf16 matrix work on ``device``: AVX512-BF16 or AMX on a CPU, compute capability 8+ on CUDA."""
     import torch
