@@ -84,6 +84,7 @@ class LocoEnv(VecEnv):
             z(N, self.num_actions)
         self.commands = z(N, 3)
         self.heading = z(N)
+        self.steer_held = False  # hold_commands(steer=True): steer to the heading out of heading mode too
         self.avg_yaw_rate = z(N)
         self.last_joint_vel = z(N, J)
         self.last_contact = torch.zeros(N, len(robot.foot_links), dtype=torch.bool, device=self.device)
@@ -378,15 +379,18 @@ class LocoEnv(VecEnv):
             self.command_timer[ids] = c.resample_time
 
     def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True,
-                      yaw_rate: float = 0.0):
+                      yaw_rate: float = 0.0, steer: bool = False):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
-        heading (heading mode) or is ``yaw_rate``. They hold until the next call (a reset robot draws random ones until
-        then). ``refresh``: recompute the observation so the next action already sees them; a caller that steers
-        every step can skip it, as step() re-applies the heading before its observation."""
+        heading (heading mode, or ``steer``) or is ``yaw_rate``. They hold until the next call (a reset robot draws
+        random ones until then). ``steer`` steers a policy trained on yaw-rate commands (heading mode off) at the
+        heading as well, as a driver would: the evaluation course aims every robot at its target. ``refresh``:
+        recompute the observation so the next action already sees them; a caller that steers every step can skip it,
+        as step() re-applies the heading before its observation."""
         self.commands[:, :2] = lin_vel_xy
         self.heading.copy_(heading)
         self.command_timer.fill_(math.inf)
-        if self.cfg.commands.heading_mode:
+        self.steer_held = steer
+        if self.cfg.commands.heading_mode or steer:
             self._heading_control()
         else:
             self.commands[:, 2] = yaw_rate
@@ -395,7 +399,7 @@ class LocoEnv(VecEnv):
 
     def _heading_control(self):
         c = self.cfg.commands
-        if not c.heading_mode:
+        if not (c.heading_mode or self.steer_held):
             return
         err = wrap_angle(self.heading - yaw(self.world.root_quat))
         moving = self.commands[:, :2].norm(dim=-1) > 0

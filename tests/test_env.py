@@ -413,6 +413,26 @@ def test_held_yaw_rate_is_commanded_and_observed_without_heading_mode():
     assert torch.allclose(seen, torch.full((2,), -0.3 * cfg.obs.command_scale[2], device=env.device))
 
 
+def test_steer_turns_a_yaw_rate_policy_towards_the_heading_each_step():
+    # The evaluation course steers every robot at its target, also one trained without heading mode: the yaw-rate
+    # command must follow the heading error (left of the robot: turn left), and step() must keep re-aiming it.
+    from cra_warp.rotations import yaw
+
+    cfg = LocoConfig(num_envs=2, device=DEVICE, randomization=DomainRandConfig(enabled=False))
+    cfg.commands.heading_mode = False
+    env = LocoEnv(cfg)
+    env.reset_idx(torch.arange(2, device=env.device))
+    heading = yaw(env.world.root_quat) + torch.tensor([0.6, -0.6], device=env.device)  # spawns face random ways
+    env.hold_commands(torch.tensor([[0.3, 0.0]] * 2, device=env.device), heading, steer=True)
+    first = env.commands[:, 2].clone()
+    assert first[0] > 0.1 and first[1] < -0.1
+    env.heading -= torch.tensor([1.2, -1.2], device=env.device)  # the target moved to the other side
+    env.step(env.stand_actions())
+    assert env.commands[0, 2] < -0.1 and env.commands[1, 2] > 0.1
+    env.hold_commands(torch.tensor([[0.3, 0.0]] * 2, device=env.device), heading)  # no steer: the yaw rate as held
+    assert (env.commands[:, 2] == 0).all()
+
+
 def test_random_start_phase_spreads_the_clock_over_the_cycle():
     cfg = LocoConfig(num_envs=64, device=DEVICE)
     assert (LocoEnv(cfg).clock.phase == 0).all()

@@ -162,7 +162,7 @@ class _AlternatingFeet:
     def reset_idx(self, ids):
         self.k = 0
 
-    def hold_commands(self, lin_vel_xy, heading, refresh, yaw_rate=0.0):
+    def hold_commands(self, lin_vel_xy, heading, refresh, yaw_rate=0.0, steer=False):
         self.commands[:, :2] = lin_vel_xy
 
     def get_observations(self):

@@ -7,8 +7,8 @@ or the flat-ground walking trial.
 
 Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
-speed with its heading steered at the target. A robot succeeds when its base comes within the target radius before
-it ever falls; a fallen robot is respawned by the env but stays failed. A trial lasts twice the start-target
+speed with its heading steered at the target (through its yaw-rate command, also for a policy trained without
+heading mode). A robot succeeds when its base comes within the target radius before it ever falls; a fallen robot is respawned by the env but stays failed. A trial lasts twice the start-target
 distance over the speed, plus 2 s. Physical randomisation, pushes and shoves are off (the nominal robot); the
 actor's observation noise stays on. --agent-stand adds a floor: the scripted stand (cra_warp.stand), which holds
 the reference pose and walks nowhere (the robot's soft ankles make a zero action fall).
@@ -105,7 +105,7 @@ def evaluate(env, act, speed: float) -> Tally:
         for k in range(int(steps.max())):
             to_target = dep.target[:, :2] - env.root_pos[:, :2]
             # observed once at the start; later the step's own observation shows the steered command
-            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]), refresh=k == 0)
+            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]), refresh=k == 0, steer=True)
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
             fell = dones & ~extras["time_outs"]
