@@ -381,11 +381,12 @@ class LocoEnv(VecEnv):
     def hold_commands(self, lin_vel_xy: torch.Tensor, heading: torch.Tensor, refresh: bool = True,
                       yaw_rate: float = 0.0, steer: bool = False):
         """Command base velocities [N, 2] and world headings [N] instead of random ones: the yaw rate steers to the
-        heading (heading mode, or ``steer``) or is ``yaw_rate``. They hold until the next call (a reset robot draws
-        random ones until then). ``steer`` steers a policy trained on yaw-rate commands (heading mode off) at the
-        heading as well, as a driver would: the evaluation course aims every robot at its target. ``refresh``:
-        recompute the observation so the next action already sees them; a caller that steers every step can skip it,
-        as step() re-applies the heading before its observation."""
+        heading (heading mode, or ``steer``) or is ``yaw_rate`` (ignored when steered). They hold until the next
+        call (a reset robot draws random ones until then, and while ``steer`` holds it is steered to its random
+        heading). ``steer`` steers a policy trained on yaw-rate commands (heading mode off) at the heading as well, as
+        a driver would: the evaluation course aims every robot at its target. ``refresh``: recompute the observation
+        so the next action already sees them; a caller that steers every step can skip it, as step() re-applies the
+        heading before its observation."""
         self.commands[:, :2] = lin_vel_xy
         self.heading.copy_(heading)
         self.command_timer.fill_(math.inf)

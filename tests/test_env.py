@@ -431,6 +431,8 @@ def test_steer_turns_a_yaw_rate_policy_towards_the_heading_each_step():
     assert env.commands[0, 2] < -0.1 and env.commands[1, 2] > 0.1
     env.hold_commands(torch.tensor([[0.3, 0.0]] * 2, device=env.device), heading)  # no steer: the yaw rate as held
     assert (env.commands[:, 2] == 0).all()
+    env.step(env.stand_actions())
+    assert (env.commands[:, 2] == 0).all()  # and step() no longer re-aims it
 
 
 def test_random_start_phase_spreads_the_clock_over_the_cycle():

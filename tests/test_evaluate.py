@@ -221,3 +221,27 @@ def test_seed_means_and_csv(tmp_path):
     rows = list(csv.DictReader((tmp_path / "eval.csv").open()))
     assert [r["table"] for r in rows] == ["record"] * 4 + ["seed_mean"] * 2
     assert float(rows[4]["success_mean"]) == pytest.approx(0.75) and rows[0]["train_seed"] == "1"
+
+
+def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
+    """Without heading mode the yaw-rate command is the policy's own input: the evaluator still turns every robot
+    towards its target through it (here a target to each robot's left: a positive, anticlockwise command)."""
+    from cra_warp.rotations import yaw
+
+    env, dep = course_env, course_env.ground.deployment
+    left = yaw(env.world.root_quat) + torch.pi / 2
+    aside = dep.start[:, :2] + 3.0 * torch.stack([torch.cos(left), torch.sin(left)], -1)
+    seen = []
+
+    def stand(obs, dones):
+        seen.append(env.commands[:, 2].clone())
+        return env.stand_actions()
+
+    env.cfg.commands.heading_mode = False
+    env.ground.deployment = dep._replace(target=torch.cat([aside, dep.target[:, 2:]], -1))
+    try:
+        eval_cli.evaluate(env, stand, speed=8.0)
+    finally:
+        env.cfg.commands.heading_mode = True
+        env.ground.deployment = dep
+    assert len(seen) > 10 and all((c > 0.2).all() for c in seen)

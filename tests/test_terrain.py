@@ -251,8 +251,9 @@ def test_curriculum_promotes_demotes_and_wraps(terrain):
     assert cur.levels.tolist() == [0] * n and cur.cols.tolist() == [i % 6 for i in range(n)]
     cur.levels[:] = torch.tensor([3, 3, 3, 3, 0, 0, 9, 9, 9, 9, 5, 5])
     walked = torch.tensor([4.5, 1.0, 3.0, 0.5, 0.1, 5.0, 4.1, 4.1, 4.1, 4.1, 2.0, 2.0])
+    walked[2] = 5.0    # env 2 walked its commands in circles: far along its path (no demotion) ...
     farthest = walked.clone()
-    farthest[2] = 1.0  # walked its commands in circles: neither up nor down
+    farthest[2] = 1.0  # ... but never got far from its origin (no promotion)
     commanded = torch.tensor([10., 10., 4., 0.0, 5., 5., 5., 5., 5., 5., 3.9, 4.1])
     ids = torch.arange(n)
     cur.update(ids, walked, farthest, commanded)

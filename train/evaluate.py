@@ -8,12 +8,14 @@ or the flat-ground walking trial.
 Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
 speed with its heading steered at the target (through its yaw-rate command, also for a policy trained without
-heading mode). A robot succeeds when its base comes within the target radius before it ever falls; a fallen robot is respawned by the env but stays failed. A trial lasts twice the start-target
-distance over the speed, plus 2 s. Physical randomisation, pushes and shoves are off (the nominal robot); the
-actor's observation noise stays on. --agent-stand adds a floor: the scripted stand (cra_warp.stand), which holds
-the reference pose and walks nowhere (the robot's soft ankles make a zero action fall).
-The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0,
-for --seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
+heading mode). A robot succeeds when its base comes within the target radius before it ever falls; a fallen robot
+is respawned by the env but stays failed. A trial lasts twice the start-target distance over the speed, plus 2 s.
+Physical randomisation, pushes and shoves are off (the nominal robot); the actor's observation noise stays on.
+--agent-stand adds a floor: the scripted stand (cra_warp.stand), which holds the reference pose and walks nowhere
+(the robot's soft ankles make a zero action fall).
+The flat trial (--trial flat): --robots robots on flat ground, each commanded (speed, 0) with its heading held at 0
+(a policy trained without heading mode: a yaw rate of 0; its drift is part of what the trial measures), for
+--seconds; success = no fall; tracking error = mean |v_x - speed| (base frame) over the robots still up, after
 the first 2 s (the start from rest). --lateral adds trials commanded (0, v_y), --yaw-rates trials turning at a yaw
 rate while walking forward at --turn-speed (heading mode commands no turn to a robot told to stand still); each
 record gives the mean tracking error of v_x, v_y and the yaw rate, per step and of each robot's average over the
@@ -132,12 +134,12 @@ def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw
     heading = torch.zeros(n, device=dev)
     env.reset_idx(torch.arange(n, device=dev))
     dones = torch.ones(n, dtype=torch.bool, device=dev)
-    steer = bool(yaw_rate) and env.cfg.commands.heading_mode  # else the yaw rate is commanded as it is
+    turn_by_heading = bool(yaw_rate) and env.cfg.commands.heading_mode  # else the yaw rate is commanded as it is
     with torch.inference_mode():
         for k in range(round(seconds / env.dt)):
-            if steer:  # a heading ahead of the robot's own, seen in this step's observation
+            if turn_by_heading:  # a heading ahead of the robot's own, seen in this step's observation
                 heading = _turning_heading(env, yaw_rate)
-            env.hold_commands(lin, heading, refresh=k == 0 or steer, yaw_rate=yaw_rate)
+            env.hold_commands(lin, heading, refresh=k == 0 or turn_by_heading, yaw_rate=yaw_rate)
             commanded = env.commands[:, :3].clone()   # what this step's action was chosen for
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()

@@ -125,7 +125,8 @@ class ContrastConfig:
     # the paper's s_t) or without it. With it InfoNCE pairs I_S and I_T on proprioception alone (top-1 1.00 within
     # ~10 iterations); without it only the privileged state and the terrain (u_t, the foot maps) are left to
     # match. Without it, a linear probe finds more terrain in m_a than with it or with no contrast (issue 11 part
-    # 5: 2 seeds each, rough fine-tunes of 500 iterations; tools/results/probe_contrast_seed*.json).
+    # 5: 2 seeds each, rough fine-tunes of 500 iterations; tools/results/probe_contrast_seed*.json, recorded
+    # before cra-probe steered these yaw-rate policies at their targets: they walked their start headings).
     target_actor_obs: bool = False
 
     def __post_init__(self):
