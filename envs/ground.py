@@ -79,10 +79,9 @@ class Ground:
         """[n] start headings of the envs ``ids`` on the evaluation course (facing the target); None: any heading."""
         return self.deployment.yaw[ids] if self.deployment is not None else None
 
-    def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, farthest: torch.Tensor,
-                          commanded: torch.Tensor):
+    def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor):
         if self.curriculum is not None:
-            self.curriculum.update(ids, walked, farthest, commanded)
+            self.curriculum.update(ids, walked, commanded)
 
     def mean_level(self) -> float:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0

@@ -319,11 +319,11 @@ class LocoEnv(VecEnv):
         if n == 0:
             return
         if self.episode_length_buf[ids].gt(0).any():
-            xy = self.root_pos[ids, :2]
+            walked = self.path.walked(ids, self.root_pos[ids, :2])
             # judged against the whole episode at the mean commanded speed: an early fall is a demotion
             lived = self.episode_length_buf[ids].clamp(min=1).float() * self.dt
             expected = self.commanded_dist[ids] / lived * self.cfg.episode_length_s
-            self.ground.update_curriculum(ids, self.path.walked(ids, xy), self.path.farthest(ids, xy), expected)
+            self.ground.update_curriculum(ids, walked, expected)
         origins = self.ground.spawn_origins(ids)  # [n, 3] ground point
         q = self.world.default_joint_q[ids].clone()
         q[:, :2] = origins[:, :2]
