@@ -59,6 +59,11 @@ class Deployment(NamedTuple):
         """[n] bool: base position pos [n, 3] within ``radius`` (xy) of its target."""
         return (pos[:, :2] - self.target[:, :2]).norm(dim=-1) < self.radius
 
+    def heading_to_target(self, pos: torch.Tensor) -> torch.Tensor:
+        """[n] world heading [rad] from base position pos [n, 3] to its target (what a robot is steered at)."""
+        to_target = self.target[:, :2] - pos[:, :2]
+        return torch.atan2(to_target[:, 1], to_target[:, 0])
+
     def spawn_pose(self, base_height: float, clearance: float = 0.01) -> tuple[torch.Tensor, torch.Tensor]:
         """Base position [n, 3] (ground + base_height + clearance) and quaternion [n, 4] xyzw (yaw only)."""
         pos = self.start.clone()

@@ -162,7 +162,7 @@ class _AlternatingFeet:
     def reset_idx(self, ids):
         self.k = 0
 
-    def hold_commands(self, lin_vel_xy, heading, refresh, yaw_rate=0.0, steer=False):
+    def hold_commands(self, lin_vel_xy, heading, refresh, yaw_rate=0.0):
         self.commands[:, :2] = lin_vel_xy
 
     def get_observations(self):
@@ -237,11 +237,11 @@ def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
         seen.append(env.commands[:, 2].clone())
         return env.stand_actions()
 
-    env.cfg.commands.heading_mode = False
+    heading_mode, env.cfg.commands.heading_mode = env.cfg.commands.heading_mode, False
     env.ground.deployment = dep._replace(target=torch.cat([aside, dep.target[:, 2:]], -1))
     try:
         eval_cli.evaluate(env, stand, speed=8.0)
     finally:
-        env.cfg.commands.heading_mode = True
+        env.cfg.commands.heading_mode = heading_mode
         env.ground.deployment = dep
     assert len(seen) > 10 and all((c > 0.2).all() for c in seen)

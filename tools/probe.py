@@ -67,8 +67,7 @@ def record(runner, env, a: ProbeArgs) -> dict[str, torch.Tensor]:
     out: dict[str, list] = {"latent": [], "obs": [], **{g: [] for g in GROUPS}}
     with torch.inference_mode():
         for k in range(a.warmup + a.steps):
-            to_target = dep.target[:, :2] - env.root_pos[:, :2]
-            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]), refresh=k == 0, steer=True)
+            env.hold_commands(forward, dep.heading_to_target(env.root_pos), refresh=k == 0, steer=True)
             obs = env.get_observations()
             policy.reset(dones)
             actions = policy(obs)

@@ -105,9 +105,8 @@ def evaluate(env, act, speed: float) -> Tally:
     dones = torch.ones(env.num_envs, dtype=torch.bool, device=env.device)  # fresh recurrent state for all
     with torch.inference_mode():
         for k in range(int(steps.max())):
-            to_target = dep.target[:, :2] - env.root_pos[:, :2]
             # observed once at the start; later the step's own observation shows the steered command
-            env.hold_commands(forward, torch.atan2(to_target[:, 1], to_target[:, 0]), refresh=k == 0, steer=True)
+            env.hold_commands(forward, dep.heading_to_target(env.root_pos), refresh=k == 0, steer=True)
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
             fell = dones & ~extras["time_outs"]
