@@ -1,9 +1,15 @@
 """Terrain curriculum: each env lives on one tile (level, column) and moves up or down a level at its resets.
 
-Rules (batched torch on ``device``, no loop over envs), on the distance a robot walked along its path (PathMeter):
+Rules (batched torch on ``device``, no loop over envs), on what PathMeter measured of each robot's episode. Rule
+"path" (the default), on the distance walked along its path:
 - promote when it walked more than half a tile in its episode;
 - demote when it covered less than half of the distance its commands asked for over a whole episode (mean
-  |cmd_xy| x episode length, as legged_gym): a robot that falls early is demoted;
+  |cmd_xy| x episode length, as legged_gym): a robot that falls early is demoted.
+Rule "reach", on the farthest it got from its origin (out of a pit, down a pyramid, across the field):
+- promote when that is more than half a tile;
+- demote when it is less than half of the commanded distance or of half a tile, whichever is shorter: a robot
+  stuck at the foot of a pit's wall (1.5 m out) is demoted wherever it walks on the floor.
+Both:
 - robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
 Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
 legged_gym measures the distance from the origin at the episode's end, which fits heading commands (robots walk
@@ -23,15 +29,20 @@ import torch
 
 from cra_warp.terrain import Terrain
 
+RULES = ("path", "reach")
+
 
 class TerrainCurriculum:
     """Levels [N], columns [N] and spawn origins [N, 3] of ``num_envs`` envs on ``terrain``."""
 
     def __init__(self, terrain: Terrain, num_envs: int, device: str | torch.device = "cpu", max_init_level: int = 0,
-                 seed: int = 0):
+                 seed: int = 0, rule: str = "path"):
+        if rule not in RULES:
+            raise ValueError(f"terrain curriculum rule must be one of {RULES}, got {rule!r}")
         if not 0 <= max_init_level < terrain.num_levels:
             raise ValueError(f"max_init_level must be in [0, {terrain.num_levels - 1}], got {max_init_level}")
         self.device = torch.device(device)
+        self.rule = rule
         self.num_levels, self.num_cols = terrain.num_levels, terrain.num_cols
         self.promote_distance = terrain.cfg.tile_size / 2
         self.tile_origins = torch.as_tensor(terrain.origins, dtype=torch.float32, device=self.device)  # [L, C, 3]
@@ -40,15 +51,21 @@ class TerrainCurriculum:
         self.cols = torch.arange(num_envs, device=self.device) % self.num_cols
         self.origins = self.tile_origins[self.levels, self.cols]                                      # [N, 3]
 
-    def update(self, env_ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor) -> None:
+    def update(self, env_ids: torch.Tensor, walked: torch.Tensor, farthest: torch.Tensor,
+               commanded: torch.Tensor) -> None:
         """Move envs ``env_ids`` [n] up/down a level after their episodes.
 
-        walked [n]: distance (xy, m) from the origin at episode end; commanded [n]: the distance the commands ask
-        for over a whole episode (m), whenever the episode ended.
+        walked [n]: distance (xy, m) along the path in the episode; farthest [n]: the largest distance (xy, m) from
+        the origin in it; commanded [n]: the distance the commands ask for over a whole episode (m), whenever the
+        episode ended.
         """
         lv = self.levels[env_ids]
-        up = walked > self.promote_distance
-        down = (walked < 0.5 * commanded) & ~up
+        if self.rule == "path":
+            up = walked > self.promote_distance
+            down = (walked < 0.5 * commanded) & ~up
+        else:
+            up = farthest > self.promote_distance
+            down = (farthest < 0.5 * commanded.clamp(max=self.promote_distance)) & ~up
         lv = lv + up.long() - down.long()
         wrap = lv >= self.num_levels
         lv = torch.where(wrap, torch.randint(0, self.num_levels, lv.shape, generator=self._gen, device=self.device),
@@ -77,20 +94,25 @@ class TerrainCurriculum:
 class PathMeter:
     """Distance each env's robot walked along its path since its reset [N], as the sum of the chords between its
     positions every ``window`` control steps: an arc walked on command counts nearly in full (a 1 s chord of a
-    0.5 rad/s turn is 99% of its arc), the gait's sway (periods well under the window) hardly at all."""
+    0.5 rad/s turn is 99% of its arc), the gait's sway (periods well under the window) hardly at all. It also keeps
+    the farthest the robot got from where it was reset."""
 
     def __init__(self, num_envs: int, window: int, device: str | torch.device = "cpu"):
         if window < 1:
             raise ValueError(f"PathMeter window must be >= 1 control step, got {window}")
         self.window = window
         self.length = torch.zeros(num_envs, device=device)
+        self.reach = torch.zeros(num_envs, device=device)
         self.anchor = torch.zeros(num_envs, 2, device=device)
+        self.origin = torch.zeros(num_envs, 2, device=device)
         self.steps = torch.zeros(num_envs, dtype=torch.long, device=device)
 
     def reset(self, ids: torch.Tensor, xy: torch.Tensor) -> None:
         """Envs ``ids`` start again at ``xy`` [n, 2]."""
         self.length[ids] = 0.0
+        self.reach[ids] = 0.0
         self.anchor[ids] = xy
+        self.origin[ids] = xy
         self.steps[ids] = 0
 
     def update(self, xy: torch.Tensor) -> None:
@@ -98,10 +120,14 @@ class PathMeter:
         self.steps += 1
         due = self.steps % self.window == 0
         self.length += torch.where(due, (xy - self.anchor).norm(dim=-1), 0.0)
-        self.anchor.copy_(torch.where(due.unsqueeze(-1), xy, self.anchor))  # in place: stays a normal tensor when
-        # written under rsl-rl's inference mode
+        # in place: stays a normal tensor when written under rsl-rl's inference mode
+        self.anchor.copy_(torch.where(due.unsqueeze(-1), xy, self.anchor))
+        torch.maximum(self.reach, (xy - self.origin).norm(dim=-1), out=self.reach)
 
     def walked(self, ids: torch.Tensor, xy: torch.Tensor) -> torch.Tensor:
         """Distance [n] walked by envs ``ids`` now at ``xy`` [n, 2] (the open chord included)."""
         return self.length[ids] + (xy - self.anchor[ids]).norm(dim=-1)
 
+    def farthest(self, ids: torch.Tensor, xy: torch.Tensor) -> torch.Tensor:
+        """The largest distance [n] from their reset points that envs ``ids``, now at ``xy`` [n, 2], got to."""
+        return torch.maximum(self.reach[ids], (xy - self.origin[ids]).norm(dim=-1))

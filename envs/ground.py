@@ -27,7 +27,7 @@ GROUND_KINDS = ("flat", "rough", "eval")
 
 class Ground:
     def __init__(self, kind: str, num_envs: int, device: torch.device, seed: int = 0,
-                 course: EvalCourseConfig | None = None):
+                 course: EvalCourseConfig | None = None, curriculum_rule: str = "path"):
         if kind not in GROUND_KINDS:
             raise ValueError(f"LocoConfig.terrain must be one of {GROUND_KINDS}, got {kind!r}")
         self.kind = kind
@@ -44,7 +44,7 @@ class Ground:
         elif kind == "rough":
             terrain = generate_terrain(TerrainConfig(seed=seed))
             self.boxes = terrain_boxes(terrain)
-            self.curriculum = TerrainCurriculum(terrain, num_envs, device, seed=seed)
+            self.curriculum = TerrainCurriculum(terrain, num_envs, device, seed=seed, rule=curriculum_rule)
             field = terrain.field
         else:
             # A zero field the size of one cell: lookups clamp to its border, i.e. height 0 everywhere.
@@ -79,9 +79,10 @@ class Ground:
         """[n] start headings of the envs ``ids`` on the evaluation course (facing the target); None: any heading."""
         return self.deployment.yaw[ids] if self.deployment is not None else None
 
-    def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, commanded: torch.Tensor):
+    def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, farthest: torch.Tensor,
+                          commanded: torch.Tensor):
         if self.curriculum is not None:
-            self.curriculum.update(ids, walked, commanded)
+            self.curriculum.update(ids, walked, farthest, commanded)
 
     def mean_level(self) -> float:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0

@@ -35,6 +35,7 @@ from typing import Literal
 
 from cra_warp.gait import GaitClockConfig
 from cra_warp.terrain_course import EvalCourseConfig
+from cra_warp.terrain_curriculum import RULES as CURRICULUM_RULES
 from cra_warp.sim import WorldConfig
 
 Variant = Literal["adaptive", "fixed_cycle", "clock_free"]
@@ -193,6 +194,7 @@ class LocoConfig:
     difficulty: DifficultyConfig = field(default_factory=DifficultyConfig)
     terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
     course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
+    terrain_curriculum: str = "path"                      # terrain "rough": its promotion rule, "path" or "reach"
     clip_joint_actions: float = 10.0
     # 0: q* = q_ref + robot.action_scale a on every joint (the vendor's 0.5). > 0: a per-joint scale of
     # action_scale_effort x effort_limit / kp, so a unit action asks every joint for the same share of its torque
@@ -220,6 +222,9 @@ class LocoConfig:
         unknown = set(self.rewards.weights) - set(DEFAULT_WEIGHTS)
         if unknown:
             raise ValueError(f"LocoConfig.rewards.weights has unknown terms {sorted(unknown)}")
+        if self.terrain_curriculum not in CURRICULUM_RULES:
+            raise ValueError(f"LocoConfig.terrain_curriculum must be one of {CURRICULUM_RULES}, got "
+                             f"{self.terrain_curriculum!r}")
         trials = len(self.course.kinds) * self.course.num_levels
         if self.terrain == "eval" and self.num_envs % trials:
             raise ValueError(f"LocoConfig.num_envs must be a multiple of {trials} (course kinds x levels) on the "

@@ -43,7 +43,8 @@ class LocoEnv(VecEnv):
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.dt)
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
 
-        self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course)
+        self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course,
+                             curriculum_rule=cfg.terrain_curriculum)
         self.world = make_world(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
@@ -319,11 +320,11 @@ class LocoEnv(VecEnv):
         if n == 0:
             return
         if self.episode_length_buf[ids].gt(0).any():
-            walked = self.path.walked(ids, self.root_pos[ids, :2])
+            xy = self.root_pos[ids, :2]
             # judged against the whole episode at the mean commanded speed: an early fall is a demotion
             lived = self.episode_length_buf[ids].clamp(min=1).float() * self.dt
             expected = self.commanded_dist[ids] / lived * self.cfg.episode_length_s
-            self.ground.update_curriculum(ids, walked, expected)
+            self.ground.update_curriculum(ids, self.path.walked(ids, xy), self.path.farthest(ids, xy), expected)
         origins = self.ground.spawn_origins(ids)  # [n, 3] ground point
         q = self.world.default_joint_q[ids].clone()
         q[:, :2] = origins[:, :2]
