@@ -207,17 +207,21 @@ def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
     assert torch.allclose(observed[-1], torch.where(moving, want, 0.0), atol=1e-6)
 
 
-def test_an_early_fall_is_demoted_by_the_whole_episode_distance():
+@pytest.mark.parametrize("rule", ["path", "reach"])
+def test_an_early_fall_is_demoted_by_the_whole_episode_distance(rule):
     """Walking 0.6 m in 1 s under a 1 m/s command is more than half of what that second asked, but far less than
-    half of what the 20 s episode asked: legged_gym's rule demotes it."""
-    env = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, terrain="rough"))
+    half of what the 20 s episode asked: legged_gym's rule demotes it, under either promotion rule."""
+    env = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, terrain="rough", terrain_curriculum=rule))
     cur = env.ground.curriculum
+    assert cur.rule == rule
     cur.levels[:] = 2
     env.episode_length_buf[:] = int(1.0 / env.dt)
     env.commanded_dist[:] = 1.0
     env.path.reset(torch.arange(2), env.root_pos[:, :2] - torch.tensor([0.6, 0.0], device=env.device))
     env.reset_idx(torch.tensor([0], device=env.device))
     assert cur.levels.tolist() == [1, 2]
+    with pytest.raises(ValueError, match="terrain_curriculum must be one of"):
+        LocoConfig(terrain_curriculum="displacement")
 
 
 def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
