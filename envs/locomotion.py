@@ -87,6 +87,7 @@ class LocoEnv(VecEnv):
         self.heading = z(N)
         self.steer_held = False  # hold_commands(steer=True): steer to the heading out of heading mode too
         self.avg_yaw_rate = z(N)
+        self.slow_yaw_error = z(N)  # yaw_bias's low-passed (commanded - measured) yaw rate
         self.last_joint_vel = z(N, J)
         self.last_contact = torch.zeros(N, len(robot.foot_links), dtype=torch.bool, device=self.device)
         self.episode_length_buf = torch.zeros(N, dtype=torch.long, device=self.device)
@@ -239,6 +240,8 @@ class LocoEnv(VecEnv):
         self.last_contact.copy_(self.contact)
         alpha = self.dt / (self.cfg.obs.yaw_rate_filter_tau + self.dt)
         self.avg_yaw_rate += alpha * (self.base_ang_vel[:, 2] - self.avg_yaw_rate)
+        beta = self.dt / (self.cfg.rewards.yaw_bias_tau + self.dt)
+        self.slow_yaw_error += beta * (self.commands[:, 2] - self.base_ang_vel[:, 2] - self.slow_yaw_error)
 
     def _terminations(self):
         nonfinite = ~(torch.isfinite(self.world.joint_q).all(-1) & torch.isfinite(self.world.joint_qd).all(-1))
@@ -342,6 +345,7 @@ class LocoEnv(VecEnv):
         self.last_last_actions[ids] = 0.0
         self.last_joint_vel[ids] = self.world.joint_vel[ids]
         self.avg_yaw_rate[ids] = 0.0
+        self.slow_yaw_error[ids] = 0.0
         self.last_contact[ids] = False
         self.episode_length_buf[ids] = 0
         rd = self.cfg.randomization

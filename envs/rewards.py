@@ -173,9 +173,16 @@ def swing_reference(e: LocoEnv):       # exp(-|q_swing - q_ref(clock)| / scale)
 swing_reference.needs_clock = True
 
 
+def yaw_bias(e: LocoEnv):              # (low-passed (w_cmd_yaw - w_yaw))^2
+    # ang_vel_tracking is per step: a steady 0.1 rad/s turn beside the command costs it ~4% (sigma 0.25) and hides in
+    # the gait's yaw sway (~0.4 rad/s per step), and long rough runs drifted so. Low-passed (rewards.yaw_bias_tau)
+    # the sway averages out and the steady error is what is left.
+    return e.slow_yaw_error ** 2
+
+
 TERMS: dict[str, Callable[[LocoEnv], torch.Tensor]] = {f.__name__: f for f in (
     lin_vel_tracking, ang_vel_tracking, lin_vel_z, ang_vel_xy, orientation, torso_orientation, joint_acc,
     joint_power, body_height, feet_clearance, action_rate, smoothness, feet_stumble, torques, joint_velocity,
     joint_tracking_error, arm_joint_deviation, hip_joint_deviation, waist_joint_deviation, joint_pos_limits,
     joint_vel_limits, torque_limits, no_fly, feet_lateral_distance, feet_slip, feet_ground_parallel,
-    feet_contact_force, feet_parallel, contact_momentum, contact_pattern, swing_reference)}
+    feet_contact_force, feet_parallel, contact_momentum, contact_pattern, swing_reference, yaw_bias)}

@@ -1,5 +1,7 @@
 """The locomotion task on the real batched world: layout, randomisation, pushes, terminations, the VecEnv contract."""
 
+import math
+
 import pytest
 import torch
 
@@ -505,3 +507,21 @@ def test_lateral_and_turn_feedforward_put_each_foot_down_towards_the_command():
     assert all(-0.35 < d < -0.15 for d in clockwise), clockwise
     for ff in ("lateral_feedforward", "turn_feedforward"):
         assert all(abs(d) < 0.01 for d in _sweep_at_touchdown(ff, (0.5, 0.0, 0.0))), ff
+
+
+def test_yaw_bias_keeps_a_steady_turn_and_averages_out_the_gait_sway():
+    """yaw_bias low-passes (commanded - measured) yaw rate: a 2 Hz sway of 0.4 rad/s around the command averages out,
+    a steady 0.1 rad/s beside it stays; a reset clears it."""
+    from envs.rewards import yaw_bias
+
+    env = LocoEnv(LocoConfig(num_envs=2, device=DEVICE))
+    env.commands[:, 2] = 0.3
+    for k in range(int(5.0 / env.dt)):
+        sway = 0.4 * math.sin(2 * math.pi * 2.0 * k * env.dt)
+        env.base_ang_vel[:, 2] = torch.tensor([0.3 + sway, 0.2 + sway], device=env.device)
+        env._advance_history()
+    err = env.slow_yaw_error.cpu()
+    assert abs(err[0]) < 0.04 and err[1] == pytest.approx(0.1, abs=0.04)
+    assert torch.allclose(yaw_bias(env), env.slow_yaw_error ** 2)
+    env.reset_idx(torch.tensor([1], device=env.device))
+    assert env.slow_yaw_error[1] == 0.0 and env.slow_yaw_error[0] == err[0].to(env.device)
