@@ -29,13 +29,17 @@ def test_grid_rejects_bad_values(capsys, tmp_path):
     one_line_error(capsys, grid.main(["--iterations", "0", "--out", str(tmp_path)]), "--iterations")
 
 
-def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path):
+def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path, capsys):
     # 8 iterations: long enough for the first falls, when a run first logs its terrain level
     args = ["--methods", "ours", "dwl", "--seeds", "1", "--iterations", "8", "--num-envs", "4", "--parallel", "1",
             "--out", str(tmp_path), "--eval-args=--robots-per-level 1 --speeds 1.0 --ablation-robots 1 --sim mujoco"]
     assert grid.main(args) == 0
+    started = [line.split(" (pid")[0] for line in capsys.readouterr().out.splitlines() if " (pid" in line]
+    # each run is evaluated as soon as its training ends, before the next training takes the slot
+    assert started == ["training ours seed 1", "evaluating ours seed 1", "training dwl seed 1",
+                       "evaluating dwl seed 1"], started
     for m in ("ours", "dwl"):
-        records = json.loads((tmp_path / "eval" / f"{m}.json").read_text())
+        records = json.loads((tmp_path / "eval" / f"{m}-s1.json").read_text())
         assert {r["protocol"] for r in records} == {"speed_sweep", "ablation"} and {r["method"] for r in records} == {m}
     for name in grid.FIGURES:
         assert (tmp_path / "figures" / f"{name}.png").is_file()

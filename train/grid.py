@@ -5,12 +5,13 @@ paper's protocol, draw its figures and the table.
     cra-grid --scale gpu --methods ours dwl dreamwaq --seeds 1 2 3 --out grid/
 
     <out>/train/<method>-s<seed>/   cra-train runs (rough terrain); resumed where a previous call stopped
-    <out>/eval/<method>.json        cra-eval --protocol paper over the method's final checkpoints (all seeds)
+    <out>/eval/<method>-s<seed>.json  cra-eval --protocol paper of the run's final checkpoint (and its .log)
     <out>/figures/                  cra-figures: terrain level, success vs speed, vs stairs / slope, torque scatter
     <out>/table.csv, table.json     every record and each cell's mean and std over seeds
 
 Resumable: a run whose final checkpoint exists is not trained again, an unfinished one resumes from its newest
-checkpoint, and a method's evaluation is redone only when one of its checkpoints is newer than its JSON.
+checkpoint, and a run's evaluation is redone only when its final checkpoint is newer than its JSON. A run is
+evaluated as soon as its training ends, in the next free slot, while the other trainings go on.
 """
 
 from __future__ import annotations
@@ -26,8 +27,9 @@ from pathlib import Path
 from train.cli import VARIANTS, UsageError, Variant, parse_args
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
-# cpu: what this 2-core machine trains in a night: 21 runs x 300 iterations on the MuJoCo backend, two at a time
-# (a run of ours took ~11 min on one core, ~2.2 s per iteration: ~2 h for all 21), evaluated with 10 robots per level.
+# cpu: what a 2-core machine trains in a night: 21 runs x 300 iterations on the MuJoCo backend, two at a time
+# (a run of ours: ~2.2 s per iteration on a Zen 3-class core, ~9 s on a Zen 1 core without AVX-512), each evaluated
+# with 10 robots per level.
 SCALES = {
     "gpu": {"num_envs": 4096, "iterations": 10000, "sim": "newton", "device": "cuda:0", "parallel": 1,
             "eval": []},
@@ -84,57 +86,68 @@ def plan(a: GridArgs) -> list[dict]:
     return jobs
 
 
-def train_all(jobs: list[dict], parallel: int, log) -> None:
-    """Run the pending trainings, ``parallel`` at a time, each pinned to its own core where there are enough."""
-    pending = [j for j in jobs if j["cmd"]]
+def _eval_json(a: GridArgs, job: dict) -> Path:
+    return a.out / "eval" / f"{job['method']}-s{job['seed']}.json"
+
+
+def _eval_cmd(a: GridArgs, job: dict) -> list[str] | None:
+    """cra-eval --protocol paper of the run's final checkpoint, None while its JSON is newer than that checkpoint."""
+    ckpt, out = _newest(job["run_dir"])[1], _eval_json(a, job)
+    if out.is_file() and ckpt.stat().st_mtime <= out.stat().st_mtime:
+        return None
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return [sys.executable, "-m", "train.evaluate", str(ckpt), "--protocol", "paper", "--json", str(out),
+            "--device", SCALES[a.scale]["device"],
+            *(shlex.split(a.eval_args) if a.eval_args else SCALES[a.scale]["eval"])]
+
+
+def train_and_evaluate(a: GridArgs, jobs: list[dict], log) -> list[Path]:
+    """Every pending training and evaluation, ``parallel`` processes at a time, each pinned to its own core where
+    there are enough. A run is evaluated as soon as its training ends (evaluations go first), so the evaluations
+    share the cores with the remaining trainings instead of queueing behind all of them."""
+    parallel = a.parallel or SCALES[a.scale]["parallel"]
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
-    running: list[tuple[subprocess.Popen, dict, int, object]] = []
+    trainings = [j for j in jobs if j["cmd"]]
+    evals = [j for j in jobs if not j["cmd"]]    # finished runs: evaluated unless up to date
+    running: list[tuple[subprocess.Popen, dict, str, int, object]] = []
     free = list(range(parallel))
-    while pending or running:
-        while pending and free:
-            j, slot = pending.pop(0), free.pop(0)
-            j["run_dir"].mkdir(parents=True, exist_ok=True)
+    while trainings or evals or running:
+        while free and (trainings or evals):
+            if evals:
+                j, what = evals.pop(0), "evaluating"
+                cmd = _eval_cmd(a, j)
+                if cmd is None:
+                    log(f"evaluation of {j['method']} seed {j['seed']}: up to date ({_eval_json(a, j)})")
+                    continue
+                logf = open(_eval_json(a, j).with_suffix(".log"), "a")
+            else:
+                j, what = trainings.pop(0), "training"
+                cmd = j["cmd"]
+                j["run_dir"].mkdir(parents=True, exist_ok=True)
+                logf = open(j["run_dir"] / "train.log", "a")
+            slot = free.pop(0)
             pin = {cores[slot]} if parallel > 1 and len(cores) >= parallel else None
-            logf = open(j["run_dir"] / "train.log", "a")
-            p = subprocess.Popen(j["cmd"], stdout=logf, stderr=subprocess.STDOUT,
+            p = subprocess.Popen(cmd, stdout=logf, stderr=subprocess.STDOUT,
                                  preexec_fn=(lambda c=pin: os.sched_setaffinity(0, c)) if pin else None)
-            log(f"training {j['method']} seed {j['seed']} (pid {p.pid}{f', core {cores[slot]}' if pin else ''})")
-            running.append((p, j, slot, logf))
+            log(f"{what} {j['method']} seed {j['seed']} (pid {p.pid}{f', core {cores[slot]}' if pin else ''})")
+            running.append((p, j, what, slot, logf))
         finished = [r for r in running if r[0].poll() is not None]
         if not finished:
             time.sleep(2)
             continue
         for r in finished:
-            p, j, slot, logf = r
+            p, j, what, slot, logf = r
             logf.close()
             running.remove(r)
             if p.returncode != 0:
                 for q, *_ in running:  # stop the others: the grid is resumable, nothing is lost
                     q.terminate()
-                raise UsageError(f"training {j['method']} seed {j['seed']} failed (exit {p.returncode}); "
-                                 f"see {j['run_dir'] / 'train.log'}")
+                where = j["run_dir"] / "train.log" if what == "training" else _eval_json(a, j).with_suffix(".log")
+                raise UsageError(f"{what} {j['method']} seed {j['seed']} failed (exit {p.returncode}); see {where}")
+            if what == "training":
+                evals.append(j)
             free.append(slot)
-
-
-def evaluate_all(a: GridArgs, jobs: list[dict], log) -> list[Path]:
-    """cra-eval --protocol paper per method over its seeds' final checkpoints; skipped when up to date."""
-    from train import evaluate
-
-    outs = []
-    for m in a.methods:
-        ckpts = [_newest(j["run_dir"])[1] for j in jobs if j["method"] == m]
-        out = a.out / "eval" / f"{m}.json"
-        outs.append(out)
-        if out.is_file() and all(c.stat().st_mtime <= out.stat().st_mtime for c in ckpts):
-            log(f"evaluation of {m}: up to date ({out})")
-            continue
-        out.parent.mkdir(parents=True, exist_ok=True)
-        args = [*map(str, ckpts), "--protocol", "paper", "--json", str(out), "--device", SCALES[a.scale]["device"],
-                *(shlex.split(a.eval_args) if a.eval_args else SCALES[a.scale]["eval"])]
-        log(f"evaluating {m}: cra-eval {' '.join(args)}")
-        if evaluate.main(args) != 0:
-            raise UsageError(f"evaluation of {m} failed (cra-eval {' '.join(args)})")
-    return outs
+    return [_eval_json(a, j) for j in jobs]
 
 
 def run(a: GridArgs, log=print) -> list[dict]:
@@ -148,8 +161,7 @@ def run(a: GridArgs, log=print) -> list[dict]:
         for j in jobs:
             log(f"{j['method']:12} seed {j['seed']}: " + (" ".join(j["cmd"]) if j["cmd"] else f"done ({j['final']})"))
         return jobs
-    train_all(jobs, a.parallel or SCALES[a.scale]["parallel"], log)
-    evals = evaluate_all(a, jobs, log)
+    evals = train_and_evaluate(a, jobs, log)
     records = [r for f in evals for r in json.loads(f.read_text())]
     runs = [f"{m}={','.join(str(j['run_dir']) for j in jobs if j['method'] == m)}" for m in a.methods]
     drawn = [a.out / "figures" / f"{n}.png" for n in FIGURES] + [a.out / "table.json"]
