@@ -124,7 +124,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
                                                    target_actor_obs=stored_target_actor_obs({}))
             learner.actor = dataclasses.replace(learner.actor, kind=kind)
             sim = sim or info.get("sim", "newton")
-        world = dataclasses.replace(env_cfg.world, threads=0)  # rollout threads: this machine's, not the run's
+        world = dataclasses.replace(env_cfg.world, threads=0)  # MuJoCo batch threads: this machine's, not the run's
         if sim is not None:
             world = dataclasses.replace(world, backend=sim)
         if whole_course:

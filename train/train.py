@@ -188,7 +188,7 @@ def run(a: TrainArgs):
         a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")
     seed_everything(a.seed + rank)  # before the env is built: its generator, DR and networks all follow
     # the cores this process may run on (taskset / cgroup cpusets), shared among the data-parallel processes:
-    # the learner's torch threads and the MuJoCo backend's rollout threads
+    # the learner's torch threads and the MuJoCo backend's batch threads
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, cores // int(os.getenv("WORLD_SIZE", "1")))
     env_variant, contrast, actor_kind = VARIANTS[a.variant]

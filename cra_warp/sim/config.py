@@ -33,7 +33,7 @@ class WorldConfig:
     # "newton": Newton + mujoco_warp (CPU or CUDA, graph capture); "mujoco": MuJoCo C through mujoco.rollout's
     # thread pool (CPU only), the same MjModel. Both run the same PD law and contact settings.
     backend: Literal["newton", "mujoco"] = "newton"
-    threads: int = 0                    # MuJoCo backend: rollout threads; 0 = the cores this process may use
+    threads: int = 0                    # MuJoCo backend: batch threads; 0 = the cores this process may use
     sim_dt: float = 0.005               # physics step [s]
     substeps: int = 4                   # physics steps per env step (0.02 s); must be even (captured state swap)
     contacts: Literal["feet", "all"] = "feet"  # robot shapes that collide with the terrain (never with each other)

@@ -1,40 +1,41 @@
-"""The MuJoCo C backend: N copies of the MjModel Newton's SolverMuJoCo builds for one world, stepped together by
-mujoco.rollout's persistent thread pool (CPU only).
+"""The MuJoCo C backend: N simulations of the MjModel Newton's SolverMuJoCo builds for one world, stepped together
+by MuJoCo's batched simulation (mujoco.batch: one state row per world, a thread pool; CPU only).
 
 It implements cra_warp.sim.config.World with the same physics as the Newton backend (same model, options, PD
-actuators and contact settings; tests hold the two to the same trajectories). Each world has its own MjModel, so
-physical parameters are per world. One env step is one rollout call of ``substeps`` physics steps for all worlds.
+actuators and contact settings; tests hold the two to the same trajectories). Physical parameters are per world
+(the batch's per-simulation model fields). One env step is ``substeps`` physics steps of every world; the state rows
+carry the solver's warm start from one physics step to the next, as Newton does.
 
 MuJoCo keeps float64 state with wxyz quaternions and a free joint whose linear velocity is the body origin's and
 whose angular velocity is in the body frame; the views are float32 torch tensors in this interface's conventions
 (xyzw, base CoM velocity, world-frame angular velocity), converted once per step in batched torch. A world whose
 state view was written (reset, push, or directly) is converted back before the next step; the others keep their
-float64 state exactly. rollout starts each env step's constraint solve cold (it carries no warm start between
-calls), where Newton warm-starts from the previous physics step. Body poses and velocities, the whole-body CoM, foot forces and joint torques come from
-MuJoCo sensors of the last physics step, evaluated at its start (one physics step, 5 ms, before the state); a reset
-world gets them from a forward pass at its new state.
-Python loops run only over the worlds being reset or re-parameterised, never over all worlds in a step.
+float64 state exactly. Body poses and velocities, the whole-body CoM, foot forces and joint torques come from MuJoCo
+sensors of the last physics step, evaluated at its start (one physics step, 5 ms, before the state); the sensors
+are off in the env step's other physics steps, whose values nobody reads. A reset world gets them from a forward
+pass at its new state. No Python loop runs over worlds.
 """
 
 from __future__ import annotations
 
-import copy
 import os
 import re
 import time
+import warnings
 
 import mujoco
 import numpy as np
 import torch
-from mujoco import rollout
+from mujoco.batch import Batch, SimulationError
 
 from cra_warp.rotations import quat_rotate, quat_rotate_inv
 from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
 from robots.robot_config import RobotConfig
 
-# rollout takes and returns this state; each rollout starts the constraint solver cold (no warm start carried)
-_STATE = int(mujoco.mjtState.mjSTATE_FULLPHYSICS)
-_CONTROL = int(mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_XFRC_APPLIED)
+_NO_SENSORS = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
+# model fields that differ per world (domain randomisation); mj_setConst derives the rest from them
+_PER_WORLD = ("body_mass", "body_inertia", "body_ipos", "actuator_gainprm", "actuator_biasprm", "jnt_actfrcrange",
+              "geom_friction", "dof_armature")
 _BODY_SENSORS = 13  # per body: position (3), quaternion wxyz (4) of its frame, CoM linear (3), angular velocity (3)
 
 
@@ -72,24 +73,22 @@ class MujocoWorld:
         if tuple(joints) != robot.joint_names or actuated != list(range(1, J + 1)) or base.nq != FREE_Q + J:
             raise ValueError(f"{robot.name}: the MuJoCo model's joints {joints} are not the config's {robot.joint_names}")
         self._base = base
-        self._models = [copy.copy(base) for _ in range(N)]
-        threads = cfg.threads or len(os.sched_getaffinity(0))
-        self._datas = [mujoco.MjData(base) for _ in range(threads)]
+        self._batch = batch = Batch(base, N, nthread=cfg.threads or len(os.sched_getaffinity(0)))
+        batch.reset(stage=mujoco.mjtStage.mjSTAGE_NONE)  # every state row: the model's defaults
+        self._fields = {f: batch.expand(f) for f in _PER_WORLD}                           # [N, ...] numpy views
+        self._flags = batch.expand("opt.disableflags")                                    # [N]
         self._body_ids = np.array([base.body(n).id for n in self._body_names])           # [B] MuJoCo body ids
         self._robot_geoms = np.flatnonzero(base.geom_bodyid > 0)                          # robot geoms (not world)
 
-        # float64 MuJoCo buffers (rollout reads and writes them) and their torch aliases
-        nstate = mujoco.mj_stateSize(base, _STATE)
-        self._state = np.zeros((N, nstate))
-        self._out = np.zeros((N, cfg.substeps, nstate))
-        self._sens = np.zeros((N, cfg.substeps, base.nsensordata))
-        self._control = np.zeros((N, cfg.substeps, base.nu + 6 * base.nbody))  # held for the env step
-        self._state64 = torch.from_numpy(self._state)
-        self._sens64 = torch.from_numpy(self._sens)
-        self._control64 = torch.from_numpy(self._control)
-        self._qpos = slice(1, 1 + base.nq)  # the state starts with the time
-        self._qvel = slice(self._qpos.stop, self._qpos.stop + base.nv)
-        self._xfrc_base = base.nu + 6 * int(self._body_ids[0])  # external wrench slot of the base body
+        # float64 torch aliases of the batch's state rows (its time, qpos, qvel, warm start and inputs) and sensors
+        self._time, self._qpos64, self._qvel64 = (torch.from_numpy(batch.bind(f)) for f in ("time", "qpos", "qvel"))
+        self._warmstart = torch.from_numpy(batch.bind("qacc_warmstart"))
+        self._ctrl64, self._xfrc64 = torch.from_numpy(batch.bind("ctrl")), torch.from_numpy(batch.bind("xfrc_applied"))
+        self._xfrc_base = self._xfrc64[:, int(self._body_ids[0])]                         # [N, 6] the base's wrench
+        with warnings.catch_warnings():  # read-only output, refreshed in place by every batch call; only read here
+            warnings.simplefilter("ignore", UserWarning)
+            self._sens64 = torch.from_numpy(batch.bind("sensordata"))
+        self._warnings = batch.warning[..., 1]                                            # [N, kinds] counts
 
         # float32 views in the interface's conventions
         f32 = dict(dtype=torch.float32)
@@ -161,14 +160,14 @@ class MujocoWorld:
     def _publish(self, ids: torch.Tensor | None = None):
         """float64 MuJoCo state and sensors -> the float32 views (all worlds, or ``ids``)."""
         ids = slice(None) if ids is None else ids
-        qpos, qvel = self._state64[ids, self._qpos], self._state64[ids, self._qvel]
+        qpos, qvel = self._qpos64[ids], self._qvel64[ids]
         quat = _wxyz_to_xyzw(qpos[:, 3:7])
         w_world = quat_rotate(quat, qvel[:, 3:6])
         c = quat_rotate(quat, self.body_com[ids, 0].double())                     # base CoM offset, world frame
         v_com = qvel[:, 0:3] + torch.cross(w_world, c, dim=-1)
         self.joint_q[ids] = torch.cat([qpos[:, 0:3], quat, qpos[:, 7:]], -1).float()
         self.joint_qd[ids] = torch.cat([v_com, w_world, qvel[:, 6:]], -1).float()
-        s = self._sens64[ids, -1]
+        s = self._sens64[ids]
         bodies = s[:, self._s_bodies].view(-1, self.num_bodies, _BODY_SENSORS)
         self._bodies[ids] = torch.cat([bodies[..., 0:3], _wxyz_to_xyzw(bodies[..., 3:7]), bodies[..., 7:]], -1).float()
         self.foot_forces[ids] = -s[:, self._s_feet].view(-1, len(self.robot.foot_links), 3).float()  # on the foot
@@ -183,17 +182,17 @@ class MujocoWorld:
         quat = q[:, 3:7] / q[:, 3:7].norm(dim=-1, keepdim=True)
         c = quat_rotate(quat, self.body_com[rows, 0].double())
         v_origin = qd[:, 0:3] - torch.cross(qd[:, 3:6], c, dim=-1)
-        self._state64[rows, self._qpos] = torch.cat([q[:, 0:3], _xyzw_to_wxyz(quat), q[:, 7:]], -1)
-        self._state64[rows, self._qvel] = torch.cat([v_origin, quat_rotate_inv(quat, qd[:, 3:6]), qd[:, 6:]], -1)
+        self._qpos64[rows] = torch.cat([q[:, 0:3], _xyzw_to_wxyz(quat), q[:, 7:]], -1)
+        self._qvel64[rows] = torch.cat([v_origin, quat_rotate_inv(quat, qd[:, 3:6]), qd[:, 6:]], -1)
 
-    def _forward(self, ids: torch.Tensor):
-        """Sensors of worlds ``ids`` at their current state (one forward pass each), as the last step's output."""
-        d = self._datas[0]
-        for i in ids.tolist():
-            mujoco.mj_setState(self._models[i], d, self._state[i], _STATE)
-            d.ctrl[:] = self._control[i, 0, :self._base.nu]
-            mujoco.mj_forward(self._models[i], d)
-            self._sens[i, -1] = d.sensordata
+    def _advance(self, nstep: int) -> np.ndarray:
+        """``nstep`` physics steps of every world; returns the ids of worlds MuJoCo raised an error in (they keep
+        their state)."""
+        try:
+            self._batch.step(nstep=nstep)
+        except SimulationError as e:
+            return e.ids
+        return np.zeros(0, dtype=np.int64)
 
     # ---------------------------------------------------------------- stepping
     def step(self):
@@ -201,22 +200,23 @@ class MujocoWorld:
         changed = ((self.joint_q != self._published_q).any(1) | (self.joint_qd != self._published_qd).any(1))
         if changed.any():
             self._write_back(changed.nonzero().flatten())
-        nu = self._base.nu
-        self._control64[:, :, :nu] = self.joint_target.unsqueeze(1)
-        self._control64[:, :, self._xfrc_base:self._xfrc_base + 6] = self.base_force.unsqueeze(1)
+        self._ctrl64[:] = self.joint_target
+        self._xfrc_base[:] = self.base_force
         # MuJoCo silently resets a world whose state is not finite, or turns so during the step (to the model's
-        # qpos0, time 0), and rollout stops a world at any MuJoCo warning (also a full contact or constraint
-        # buffer). Such a world is made non-finite instead, so the task sees it, resets it and counts it, as on
-        # Newton. Time is state column 0: such a world's clock ends short of start + one env step.
-        broken = ~torch.isfinite(self._state64).all(1)
-        t_end = self._state64[:, 0] + 0.5 * self.cfg.env_dt
-        rollout.rollout(self._models, self._datas, self._state, self._control, control_spec=_CONTROL,
-                        skip_checks=True, nstep=self.cfg.substeps, state=self._out, sensordata=self._sens,
-                        persistent_pool=True)
-        self._state[:] = self._out[:, -1]
-        broken |= self._state64[:, 0] < t_end
+        # qpos0, time 0), and it warns (and goes on) when its contact or constraint buffer is full. Such a world is
+        # made non-finite instead, so the task sees it, resets it and counts it, as on Newton: its clock ends short
+        # of start + one env step, or its warning counts rose.
+        broken = ~(torch.isfinite(self._qpos64).all(1) & torch.isfinite(self._qvel64).all(1))
+        t_end = self._time + 0.5 * self.cfg.env_dt
+        warned = self._warnings.sum(1)
+        self._flags |= _NO_SENSORS
+        failed = self._advance(self.cfg.substeps - 1)
+        self._flags &= ~_NO_SENSORS
+        failed = np.union1d(failed, self._advance(1))
+        broken |= (self._time < t_end) | torch.from_numpy(self._warnings.sum(1) > warned)
+        broken[torch.from_numpy(failed)] = True
         if broken.any():
-            self._state64[broken, self._qvel] = float("nan")
+            self._qvel64[broken] = float("nan")
         self._publish()
 
     def reset(self, env_ids: torch.Tensor | None = None, joint_q: torch.Tensor | None = None,
@@ -229,12 +229,13 @@ class MujocoWorld:
         self.joint_target[ids] = self.default_joint_q[ids, FREE_Q:]
         self.base_force[ids] = 0.0
         self._write_back(ids)
-        self._state64[ids, 0] = 0.0
-        self._control64[ids] = 0.0
-        self._control64[ids, :, :self._base.nu] = self.joint_target[ids].double().unsqueeze(1)
-        self._forward(ids)
-        self._sens64[ids, -1, self._s_feet] = 0.0  # no contact force before the first step, as in Newton
+        self._time[ids] = 0.0
+        self._warmstart[ids] = 0.0
+        self._xfrc64[ids] = 0.0
+        self._ctrl64[ids] = self.joint_target[ids].double()
+        self._batch.forward(ids.numpy())  # the sensors at the new state, as the last step's output
         self._publish(ids)
+        self.foot_forces[ids] = 0.0  # no contact force before the first step, as in Newton
 
     def com(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Whole-body CoM [N, 3] and its velocity [N, 3] (MuJoCo's subtree sensors of the base)."""
@@ -281,30 +282,26 @@ class MujocoWorld:
         self._dirty[ids] = True
 
     def commit_physics(self):
-        """Write the parameters changed by set_* into the changed worlds' models (a loop over those only)."""
-        ids = self._dirty.nonzero().flatten().tolist()
-        if not ids:
+        """Write the parameters changed by set_* into the changed worlds' model fields, then their derived
+        constants (body subtree masses, inverse weights: mj_setConst)."""
+        ids = self._dirty.nonzero().flatten().numpy()
+        if not len(ids):
             return
-        bodies, geoms = self._body_ids, self._robot_geoms
-        mass, com = self.body_mass.double().numpy(), self.body_com.double().numpy()
-        kp, kd = self.joint_kp.double().numpy(), self.joint_kd.double().numpy()
-        effort, mu = self.joint_effort_limit.double().numpy(), self._friction.double().numpy()
-        armature = self.joint_armature.double().numpy()
-        nominal_mass = self._nominal["body_mass"].double().numpy()
-        for i in ids:
-            m = self._models[i]
-            m.body_mass[bodies] = mass[i]
-            m.body_inertia[bodies] = self._inertia0 * (mass[i] / nominal_mass[i])[:, None]
-            m.body_ipos[bodies] = com[i]
-            m.actuator_gainprm[:, 0] = kp[i]
-            m.actuator_biasprm[:, 1] = -kp[i]
-            m.actuator_biasprm[:, 2] = -kd[i]
-            m.jnt_actfrcrange[1:, 0] = -effort[i]
-            m.jnt_actfrcrange[1:, 1] = effort[i]
-            m.geom_friction[geoms, 0] = mu[i]
-            m.dof_armature[FREE_QD:] = armature[i]
-            mujoco.mj_setConst(m, self._datas[0])  # derived constants (body subtree masses, inverse weights)
+        f, rows, bodies, geoms = self._fields, ids[:, None], self._body_ids, self._robot_geoms
+        mass, kp, kd = self.body_mass[ids].double(), self.joint_kp[ids].double(), self.joint_kd[ids].double()
+        effort = self.joint_effort_limit[ids].double()
+        f["body_mass"][rows, bodies] = mass.numpy()
+        f["body_inertia"][rows, bodies] = self._inertia0 * (mass / self._nominal["body_mass"][ids]).unsqueeze(-1).numpy()
+        f["body_ipos"][rows, bodies] = self.body_com[ids].double().numpy()
+        f["actuator_gainprm"][ids, :, 0] = kp.numpy()
+        f["actuator_biasprm"][ids, :, 1] = -kp.numpy()
+        f["actuator_biasprm"][ids, :, 2] = -kd.numpy()
+        f["jnt_actfrcrange"][ids, 1:, 0] = -effort.numpy()
+        f["jnt_actfrcrange"][ids, 1:, 1] = effort.numpy()
+        f["geom_friction"][rows, geoms, 0] = self._friction[ids].double().unsqueeze(-1).numpy()
+        f["dof_armature"][ids, FREE_QD:] = self.joint_armature[ids].double().numpy()
+        self._batch.set_const(ids)
         self._dirty[:] = False
 
     def close(self):
-        rollout.shutdown_persistent_pool()
+        self._batch = None  # its threads and buffers go with it
