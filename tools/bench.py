@@ -3,11 +3,12 @@
 One env step = cfg.substeps x cfg.sim_dt (4 x 0.005 s = 0.02 s of sim time). Every configuration runs in a fresh
 worker process, so its peak RSS is its own. Engines:
   newton       the Newton world (1 or 2 processes), robots held up by the scripted stand (cra_warp.stand)
-  mujoco       the MuJoCo C backend (1 or 2 rollout threads in one process), scripted stand
-  rollout      bare mujoco.rollout on the same model with constant targets, no conversions (the floor of the
-               MuJoCo backend's cost; under the robot's soft ankles these robots fall, see "standing")
+  mujoco       the MuJoCo C backend (1 or 2 threads in one process), scripted stand
+  rollout      bare mujoco.rollout on the same model with constant targets, no sensors or conversions (the floor
+               of the MuJoCo backend's cost); every world restarts standing every HOLD_S, before its robot, on
+               the robot's soft ankles, falls (a fallen robot's contacts are not the task's)
   task         the full locomotion env (obs, rewards, maps, resets) on Newton, scripted-stand actions
-  task_mujoco  the same on the MuJoCo backend, 1 or 2 rollout threads
+  task_mujoco  the same on the MuJoCo backend, 1 or 2 threads
 Each record says which fraction of robots was still up at the end (pelvis within 15 cm of its spawn height,
 upright). MuJoCo C runs the very model Newton builds (SolverMuJoCo's own MJCF export).
 
@@ -30,6 +31,7 @@ from pathlib import Path
 from cra_warp.atomic_json import write_json
 from cra_warp.host_memory import keep_freed_memory
 
+HOLD_S = 0.5       # [s] the bare rollout's robots restart standing this often (a zero action falls in ~1.3 s)
 STAND_DROP = 0.15  # [m] a robot counts as standing while its pelvis is within this of the spawn height
 TERRAINS = ("flat", "stairs", "rough")  # rough: the training course (897 boxes, per-world windows), level-0 tiles
 ENGINES = ("newton", "mujoco", "rollout", "task", "task_mujoco")
@@ -218,8 +220,13 @@ def _rollout_worker(spec: dict) -> dict:
     datas = [mujoco.MjData(model) for _ in range(threads)]
     out = np.empty((n, substeps, nstate))
     spawn_z = s0[3]
+    hold = max(1, round(HOLD_S / (substeps * spec["sim_dt"])))
+    count = [0]
 
     def env_step():
+        count[0] += 1
+        if count[0] % hold == 0:
+            state[:] = s0
         rollout.rollout(model, datas, state, ctrl, nstep=substeps, state=out, persistent_pool=True)
         state[:] = out[:, -1]
 
