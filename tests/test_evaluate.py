@@ -67,6 +67,21 @@ def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
     assert near.succeeded.all() and not near.fell.any()
 
 
+def test_a_deployment_ends_once_every_robot_is_decided(course_env, monkeypatch):
+    """Robots that all reached their targets cannot change their outcome: the deployment stops there instead of
+    running to the end of its longest trial."""
+    env, dep = course_env, course_env.ground.deployment
+    calls, step = [], env.step
+    monkeypatch.setattr(env, "step", lambda actions: calls.append(1) or step(actions))
+    env.ground.deployment = dep._replace(radius=4.0)
+    try:
+        near = eval_cli.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
+    finally:
+        env.ground.deployment = dep
+    assert near.succeeded.all()
+    assert len(calls) == 1 < int(eval_cli.trial_steps(dep, 8.0, env.dt).max())
+
+
 def test_commands_point_at_the_target(course_env):
     env, dep = course_env, course_env.ground.deployment
     to_target = dep.target[:, :2] - env.root_pos[:, :2]
