@@ -30,7 +30,7 @@ class WorldConfig:
 
     num_envs: int = 64
     device: str = "cpu"
-    # "newton": Newton + mujoco_warp (CPU or CUDA, graph capture); "mujoco": MuJoCo C through mujoco.rollout's
+    # "newton": Newton + mujoco_warp (CPU or CUDA, graph capture); "mujoco": MuJoCo C through mujoco.batch's
     # thread pool (CPU only), the same MjModel. Both run the same PD law and contact settings.
     backend: Literal["newton", "mujoco"] = "newton"
     threads: int = 0                    # MuJoCo backend: batch threads; 0 = the cores this process may use
