@@ -79,6 +79,7 @@ class RewardConfig:
     base_height_target: float = 0.88                 # [m] pelvis above the soles (the vendor's reward target)
     feet_clearance_target: float = 0.08              # [m] swing-foot sole height above the ground
     yaw_bias_tau: float = 1.0                        # [s] low-pass of the yaw-rate error yaw_bias penalises
+    stall_min_command: float = 0.2                   # [m/s] stall counts only under a planar command this fast
     feet_min_lateral_distance: float = 0.2           # d_min [m]
     contact_force_threshold: float = 700.0           # F_th [N], ~1.2 x body weight
     soft_limit: float = 0.9                          # joint position/velocity/torque limits at 90% of the range
@@ -134,6 +135,7 @@ TABLE_I_TERMS: tuple[str, ...] = tuple(DEFAULT_WEIGHTS)
 # Beyond Table I: off unless a run sets a weight (e.g. --override rewards.weights.swing_reference=2).
 DEFAULT_WEIGHTS["swing_reference"] = 0.0
 DEFAULT_WEIGHTS["yaw_bias"] = 0.0
+DEFAULT_WEIGHTS["stall"] = 0.0
 
 
 @dataclass

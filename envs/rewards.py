@@ -180,9 +180,19 @@ def yaw_bias(e: LocoEnv):              # (low-passed (w_cmd_yaw - w_yaw))^2
     return e.slow_yaw_error ** 2
 
 
+def stall(e: LocoEnv):                 # 1{|v_cmd_xy| > v_min and v_xy . v_cmd_xy / |v_cmd_xy| < |v_cmd_xy| / 2}
+    # Under lin_vel_tracking's kernel a robot standing still keeps exp(-|v_cmd|^2 / sigma) of it: 37% when told
+    # 0.5 m/s, 2-8% when told 0.8-1.0. rough_walk_v0 stops at the foot of a slope when told 0.5 m/s and climbs it when
+    # told 0.8. This indicator costs the same for going less than half as fast as told at any commanded speed.
+    cmd = e.commands[:, :2]
+    speed = cmd.norm(dim=-1)
+    along = (e.base_lin_vel[:, :2] * cmd).sum(-1) / speed.clamp(min=1e-6)
+    return ((speed > e.cfg.rewards.stall_min_command) & (along < 0.5 * speed)).float()
+
+
 TERMS: dict[str, Callable[[LocoEnv], torch.Tensor]] = {f.__name__: f for f in (
     lin_vel_tracking, ang_vel_tracking, lin_vel_z, ang_vel_xy, orientation, torso_orientation, joint_acc,
     joint_power, body_height, feet_clearance, action_rate, smoothness, feet_stumble, torques, joint_velocity,
     joint_tracking_error, arm_joint_deviation, hip_joint_deviation, waist_joint_deviation, joint_pos_limits,
     joint_vel_limits, torque_limits, no_fly, feet_lateral_distance, feet_slip, feet_ground_parallel,
-    feet_contact_force, feet_parallel, contact_momentum, contact_pattern, swing_reference, yaw_bias)}
+    feet_contact_force, feet_parallel, contact_momentum, contact_pattern, swing_reference, yaw_bias, stall)}

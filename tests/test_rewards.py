@@ -83,6 +83,16 @@ def test_tracking_is_one_when_tracking_and_decays():
     assert R.lin_vel_tracking(e)[1] == pytest.approx(torch.exp(torch.tensor(-0.25 / 0.25)).item())
 
 
+def test_stall_counts_going_less_than_half_as_fast_as_told():
+    # told 0.5 m/s forward: standing, 0.2 m/s and 0.3 m/s forward, 0.3 m/s sideways; then told 0.1 m/s, standing
+    e = state(n=5, commands=torch.tensor([[0.5, 0.0, 0.0]] * 4 + [[0.1, 0.0, 0.0]]))
+    e.base_lin_vel[1, 0], e.base_lin_vel[2, 0], e.base_lin_vel[3, 1] = 0.2, 0.3, 0.3
+    assert R.stall(e).tolist() == [1.0, 1.0, 0.0, 1.0, 0.0]
+    e.commands[:, :2] = torch.tensor([0.0, -0.4])           # told sideways: the robot going 0.3 m/s that way is not
+    e.base_lin_vel[:, :2] = torch.tensor([0.0, -0.3])
+    assert not R.stall(e).any()
+
+
 def test_penalties_grow_with_the_error():
     e = state()
     e.base_lin_vel[1, 2] = 0.4
