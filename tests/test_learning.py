@@ -23,13 +23,14 @@ STEPS = 8
 
 
 def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
-                max_samples=2048, contrast=None, privileged_slices=None, **env_kw):
+                max_samples=2048, contrast=None, privileged_slices=None, critic_warmup=0, **env_kw):
     torch.manual_seed(seed)
     env = env or DummyEnv(num_envs, seed=seed, **env_kw)
     slices = env.privileged_slices if privileged_slices is None else privileged_slices
     cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=slices,
                         contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
-                        ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches))
+                        ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches),
+                        critic_warmup=critic_warmup)
     return OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu"), env
 
 
@@ -196,6 +197,45 @@ def test_ppo_update_variants(variant):
     assert len(alg.optimizer.param_groups) == 2
     assert all(g["lr"] == alg.learning_rate for g in alg.optimizer.param_groups)  # heads follow the KL schedule
     assert any(not torch.equal(v, alg.heads.state_dict()[n]) for n, v in heads0.items())
+
+
+def test_critic_warmup_holds_the_actor(tmp_path):
+    """The first updates train critic and heads only, at a fixed learning rate; the next one moves the actor. A
+    resume continues the warm-up, a fork (actor and critic loaded, no optimizer) starts its own."""
+    runner, env = make_runner(critic_warmup=2)
+    alg = runner.alg
+    lr0 = alg.learning_rate
+
+    def snapshot():
+        return [copy.deepcopy(m.state_dict()) for m in (alg.actor, alg.critic, alg.heads)]
+
+    def moved(before):
+        return [any(not torch.equal(v, m.state_dict()[n]) for n, v in b.items())
+                for b, m in zip(before, (alg.actor, alg.critic, alg.heads))]
+
+    for left in (1, 0):
+        collect(alg, env, STEPS)
+        before = snapshot()
+        alg.update()
+        assert moved(before) == [False, True, True] and alg.critic_warmup_left == left
+        assert alg.learning_rate == lr0 and all(g["lr"] == lr0 for g in alg.optimizer.param_groups)
+        assert all(p.requires_grad for p in alg.actor.parameters())
+    collect(alg, env, STEPS)
+    before = snapshot()
+    alg.update()
+    assert moved(before) == [True, True, True]
+
+    mid, env2 = make_runner(critic_warmup=3)
+    collect(mid.alg, env2, STEPS)
+    mid.alg.update()
+    mid.save(str(tmp_path / "mid.pt"))
+    resumed, _ = make_runner(critic_warmup=3)
+    load_checkpoint(tmp_path / "mid.pt", resumed)
+    forked, _ = make_runner(critic_warmup=3)
+    load_checkpoint(tmp_path / "mid.pt", forked, load_cfg={"actor": True, "critic": True})
+    assert (resumed.alg.critic_warmup_left, forked.alg.critic_warmup_left) == (2, 3)
+    with pytest.raises(ValueError, match="critic_warmup must be >= 0"):
+        make_runner(critic_warmup=-1)
 
 
 def test_contrast_sample_cap():

@@ -184,6 +184,10 @@ class LearnerConfig:
     privileged_slices: dict[str, tuple[int, int]] = field(default_factory=dict)
     num_steps_per_env: int = 24                  # rollout length per env and iteration (= recurrent BPTT window)
     save_interval: int = 100                     # iterations between checkpoints (only when a log_dir is given)
+    # first updates of a run that train the critic (and the contrastive heads) only, the actor held and the
+    # learning rate fixed: for a fork from a shipped, actor-only policy, whose fresh critic would otherwise steer
+    # the actor with untrained advantages (CRAPPO.update)
+    critic_warmup: int = 0
     # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {
         "actor": ["policy"], "critic": ["privileged", "height_map"]})
@@ -259,5 +263,5 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                       "symmetry_cfg": None, "contrast_cfg": asdict(cfg.contrast),
                       "actor_obs_slice": list(cfg.privileged_slices["observation"])
                       if "observation" in cfg.privileged_slices else None,
-                      "representation_weight": representation_weight},
+                      "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup},
     }

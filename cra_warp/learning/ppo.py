@@ -72,8 +72,11 @@ class CRAPPO(PPO):
 
     def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
                  representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
-                 **kwargs) -> None:
+                 critic_warmup: int = 0, **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
+        if critic_warmup < 0:
+            raise ValueError(f"critic_warmup must be >= 0 updates, got {critic_warmup}")
+        self.critic_warmup_left = critic_warmup  # updates that still hold the actor (saved: a resume continues)
         cfg = contrast_cfg if isinstance(contrast_cfg, ContrastConfig) else ContrastConfig(**(contrast_cfg or {}))
         self.contrast_cfg = cfg
         self.heads: ContrastiveHeads | None = None
@@ -122,6 +125,29 @@ class CRAPPO(PPO):
         return loss, acc, m_a.shape[0]
 
     def update(self) -> dict[str, float]:
+        if self.critic_warmup_left <= 0:
+            return self._update()
+        # Critic warm-up: the actor's parameters take no gradient (Adam skips them, rsl-rl's clipping and gradient
+        # reduction ignore missing gradients) and its observation normaliser no update (rsl-rl's flag gates the
+        # update only), so the policy that collects the data is the one being evaluated. The adaptive schedule
+        # would multiply the learning rate by 1.5 every mini-batch (the KL of a held actor is rounding noise above
+        # 0) and hand the actor a rate far too high when the warm-up ends: it stays put.
+        actor = self._raw_actor
+        actor_params = [p for p in actor.parameters() if p.requires_grad]
+        schedule, self.schedule = self.schedule, "fixed"
+        normalization, actor.obs_normalization = actor.obs_normalization, False
+        for p in actor_params:
+            p.requires_grad_(False)
+        try:
+            loss_dict = self._update()
+        finally:
+            self.schedule, actor.obs_normalization = schedule, normalization
+            for p in actor_params:
+                p.requires_grad_(True)
+        self.critic_warmup_left -= 1
+        return loss_dict
+
+    def _update(self) -> dict[str, float]:
         hook = self.symmetry
         if not isinstance(hook, _AuxLossHook):
             return super().update()
@@ -151,10 +177,14 @@ class CRAPPO(PPO):
         saved = super().save()
         if self.heads is not None:
             saved["contrast_state_dict"] = self.heads.state_dict()
+        if self.critic_warmup_left > 0:
+            saved["critic_warmup_left"] = self.critic_warmup_left
         return saved
 
     def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
         load_iteration = super().load(loaded_dict, load_cfg, strict)
+        if load_cfg is None or load_cfg.get("optimizer"):  # a resume (not a fork) continues a warm-up it stopped in
+            self.critic_warmup_left = loaded_dict.get("critic_warmup_left", 0)
         if self.heads is not None and (load_cfg is None or load_cfg.get("contrast", load_cfg.get("optimizer"))):
             if "contrast_state_dict" in loaded_dict:
                 self.heads.load_state_dict(loaded_dict["contrast_state_dict"], strict=strict)
