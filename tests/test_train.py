@@ -391,9 +391,29 @@ def test_init_forks_a_checkpoints_networks_into_a_new_run(trained, tmp_path, cap
     # the observation normalisers went on counting from the checkpoint's: one iteration of 4 robots x 24 steps
     for model in ("actor_state_dict", "critic_state_dict"):
         assert int(forked[model]["obs_normalizer.count"]) == int(src[model]["obs_normalizer.count"]) + 4 * 24
+    stored = json.loads((run_dir / "config.json").read_text())["learner"]
+    assert stored["ppo"]["learning_rate"] == stored["fork_learning_rate"] and stored["critic_warmup"] == 0
     one_line_error(capsys, train_cli.main(["--num-envs", "4", "--log-dir", str(tmp_path), "--init",
                                            str(first / "model_1.pt"), "--resume", str(first / "model_1.pt")]),
                    "exclude each other")
+
+
+def test_init_from_an_actor_only_policy_warms_its_critic_up(trained, tmp_path):
+    """A shipped policy has no critic: the fork's first updates leave its actor (normaliser included) exactly as
+    shipped and train the fresh critic."""
+    first, _ = trained
+    src = torch.load(first / "model_1.pt", weights_only=False)
+    shipped = tmp_path / "actor_only.pt"
+    torch.save({k: v for k, v in src.items() if k not in ("critic_state_dict", "optimizer_state_dict")}, shipped)
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=2, export=False, quiet=True,
+                                                        log_dir=tmp_path / "runs", sim="mujoco", init=shipped,
+                                                        save_interval=1))
+    warmup = json.loads((run_dir / "config.json").read_text())["learner"]["fork_critic_warmup"]
+    assert warmup >= 2 and runner.alg.critic_warmup_left == warmup - 2
+    forked = torch.load(run_dir / "model_1.pt", weights_only=False)
+    for name, value in src["actor_state_dict"].items():
+        assert torch.equal(forked["actor_state_dict"][name], value), name
+    assert forked["critic_warmup_left"] == warmup - 2
 
 
 def test_resume_keeps_each_robots_terrain_level(tmp_path):

@@ -42,7 +42,8 @@ class TrainArgs:
     resume: Path | None = None
     # checkpoint whose actor and critic (with their normalisers; a shipped policy has the actor only) this run
     # starts from, at iteration 0 with a fresh optimizer and contrastive heads: a fork into another task or variant
-    # (the rough task from a flat walker, an ablation from the same start); its curriculum levels carry over
+    # (the rough task from a flat walker, an ablation from the same start); its curriculum levels carry over. It
+    # starts at learner.fork_learning_rate, and a fresh critic learns alone for learner.fork_critic_warmup updates
     init: Path | None = None
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
@@ -132,7 +133,7 @@ def newest_checkpoint(folder: Path) -> Path | None:
 def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> None:
     """A checkpoint resumed into today's run: refused (one line) if the robot or the observation layouts changed
     since, or (unless ``fork``: --init, fresh heads) if its contrastive heads were built for another target; a PPO
-    setting that differs from the checkpoint's is said on stderr (the CLI's value is used)."""
+    setting that differs from the checkpoint's is said on stderr when resuming (the CLI's value is used)."""
     from cra_warp.config_io import to_data
     from cra_warp.learning.checkpoint import read_checkpoint
     from cra_warp.learning.config import stored_target_actor_obs
@@ -148,7 +149,7 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
                          f"observation: add --override learner.contrast.target_actor_obs={str(target).lower()}")
     then, now = stored.get("learner", {}).get("ppo", {}), to_data(learner.ppo)
     changed = {k: f"{then.get(k)} -> {v}" for k, v in now.items() if then.get(k) != v}
-    if changed and rank == 0:
+    if changed and rank == 0 and not fork:  # a fork is a new run with its own settings
         print(f"cra-train: resuming {path} with PPO settings changed from its own: {changed}", file=sys.stderr)
 
 
@@ -217,6 +218,10 @@ def run(a: TrainArgs):
             learner = with_overrides(learner, learner_over)
         except (ValueError, TypeError) as e:
             raise UsageError(f"--override: learner.{e}") from e
+    has_critic = a.init is not None and "critic_state_dict" in read_checkpoint(a.init)
+    if a.init is not None:  # a fork starts slowly (LearnerConfig.fork_learning_rate says why)
+        learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
+        learner.critic_warmup = 0 if has_critic else learner.fork_critic_warmup
     run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")
     config = run_config(a, env, env_cfg, learner)
     runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
@@ -232,9 +237,9 @@ def run(a: TrainArgs):
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     elif a.init is not None:
         check_resume(a.init, env, learner, rank, fork=True)
-        has_critic = "critic_state_dict" in read_checkpoint(a.init)
         if not has_critic and rank == 0:  # a shipped policy keeps its actor only
-            print(f"cra-train: {a.init} has no critic: the critic starts fresh", file=sys.stderr)
+            print(f"cra-train: {a.init} has no critic: the critic starts fresh and learns alone for "
+                  f"{learner.critic_warmup} iterations", file=sys.stderr)
         infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic})
     if "difficulty_level" in (infos or {}):
         env.difficulty.level.fill_(infos["difficulty_level"])

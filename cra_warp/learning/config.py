@@ -188,6 +188,13 @@ class LearnerConfig:
     # learning rate fixed: for a fork from a shipped, actor-only policy, whose fresh critic would otherwise steer
     # the actor with untrained advantages (CRAPPO.update)
     critic_warmup: int = 0
+    # cra-train --init: the fork's starting learning rate (the adaptive schedule takes over from there) and its
+    # critic warm-up where the checkpoint has no critic. From ppo.learning_rate (1e-3) Adam's first steps move
+    # every weight of a trained actor by about the rate at once: forks of rough_walk_v0 fell on the course and
+    # their curricula went back to the start within 50 iterations; from 5e-5 with 10 warm-up updates they kept
+    # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
+    fork_learning_rate: float = 5e-5
+    fork_critic_warmup: int = 10
     # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {
         "actor": ["policy"], "critic": ["privileged", "height_map"]})
