@@ -33,6 +33,8 @@ from train import train as train_cli
     (["--override", "randomization.mass_scale=[0.9,1.1,1.3]", "--max-iterations", "1"], "must have 2 entries"),
     (["--override", "obs.noise=null", "--max-iterations", "1"], "must not be null"),
     (["--override", "rewards.weights.contact_momentum=abc", "--max-iterations", "1"], "must be a finite float"),
+    (["--override", "learner.fork_learning_rate=-1", "--max-iterations", "1"], "fork_learning_rate must be > 0"),
+    (["--override", "learner.critic_warmup=-2", "--max-iterations", "1"], "the warm-ups >= 0"),
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
     (["--num-envs", "many"], "--num-envs"),                # tyro's own parse errors, as one line too
     (["--no-such-flag"], "Unrecognized options: --no-such-flag"),

@@ -218,6 +218,10 @@ def run(a: TrainArgs):
             learner = with_overrides(learner, learner_over)
         except (ValueError, TypeError) as e:
             raise UsageError(f"--override: learner.{e}") from e
+    lr, warmup = learner.fork_learning_rate, learner.fork_critic_warmup
+    if not (math.isfinite(lr) and lr > 0) or min(warmup, learner.critic_warmup) < 0:
+        raise UsageError(f"--override: learner.fork_learning_rate must be > 0 and the warm-ups >= 0, got {lr}, "
+                         f"{warmup}, {learner.critic_warmup}")
     has_critic = a.init is not None and "critic_state_dict" in read_checkpoint(a.init)
     if a.init is not None:  # a fork starts slowly (LearnerConfig.fork_learning_rate says why)
         learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
