@@ -222,8 +222,9 @@ def run(a: TrainArgs):
     if not (math.isfinite(lr) and lr > 0) or min(warmup, learner.critic_warmup) < 0:
         raise UsageError(f"--override: learner.fork_learning_rate must be > 0 and the warm-ups >= 0, got {lr}, "
                          f"{warmup}, {learner.critic_warmup}")
-    has_critic = a.init is not None and "critic_state_dict" in read_checkpoint(a.init)
+    has_critic = False
     if a.init is not None:  # a fork starts slowly (LearnerConfig.fork_learning_rate says why)
+        has_critic = "critic_state_dict" in read_checkpoint(a.init)
         learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
         learner.critic_warmup = 0 if has_critic else learner.fork_critic_warmup
     run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")

@@ -191,7 +191,7 @@ class LearnerConfig:
     # cra-train --init: the fork's starting learning rate (the adaptive schedule takes over from there) and its
     # critic warm-up where the checkpoint has no critic. From ppo.learning_rate (1e-3) Adam's first steps move
     # every weight of a trained actor by about the rate at once: forks of rough_walk_v0 fell on the course and
-    # their curricula went back to the start within 50 iterations; from 5e-5 with 10 warm-up updates they kept
+    # their curricula went back to the start within 70 iterations; from 5e-5 with 10 warm-up updates they kept
     # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
     fork_learning_rate: float = 5e-5
     fork_critic_warmup: int = 10
