@@ -213,7 +213,8 @@ def main(argv: list[str] | None = None) -> int:
             wrote += ["success_vs_speed.png", "success_vs_terrain.png"]
         if a.torque is not None:
             samples = record_stairs(a.torque, sim=a.sim, level=a.torque_level)
-            torque_velocity(samples, a.out / "torque_velocity.png", f"{a.torque} climbing stairs")
+            # the path's last three parts name the run and its iteration without the machine's directories
+            torque_velocity(samples, a.out / "torque_velocity.png", f"{Path(*a.torque.parts[-3:])} climbing stairs")
             wrote.append("torque_velocity.png")
     except ValueError as e:
         print(f"cra-figures: {e}", file=sys.stderr)
