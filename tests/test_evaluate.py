@@ -238,6 +238,18 @@ def test_seed_means_and_csv(tmp_path):
     assert float(rows[4]["success_mean"]) == pytest.approx(0.75) and rows[0]["train_seed"] == "1"
 
 
+def test_method_summary_averages_each_seed_then_over_seeds():
+    """Seed 1: success 0.75 over its two cells, seed 2: 0.375; the ablation record does not count."""
+    recs = [{"policy": f"s{s}/model.pt", "method": "ours", "speed": 0.5, "kind": "uneven", "level": lv,
+             "success_rate": rate, "fall_rate": 1 - rate, "protocol": "speed_sweep"}
+            for s, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.25))) for lv, rate in enumerate(rates)]
+    recs.append({**recs[0], "protocol": "ablation", "success_rate": 0.0, "fall_rate": 1.0})
+    row = eval_cli.method_summary(recs)["ours"]
+    assert row["seeds"] == 2 and row["success_rate"]["per_seed"] == pytest.approx([0.75, 0.375])
+    assert row["success_rate"]["mean"] == pytest.approx(0.5625) and row["success_rate"]["std"] == pytest.approx(0.1875)
+    assert row["fall_rate"]["mean"] == pytest.approx(0.4375)
+
+
 def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
     """Without heading mode the yaw-rate command is the policy's own input: the evaluator still turns every robot
     towards its target through it (here a target to each robot's left: a positive, anticlockwise command)."""

@@ -45,6 +45,7 @@ def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path, capsys):
         assert (tmp_path / "figures" / f"{name}.png").is_file()
     table = json.loads((tmp_path / "table.json").read_text())
     assert {m["method"] for m in table["seed_means"]} == {"ours", "dwl"}
+    assert set(table["methods"]) == {"ours", "dwl"} and all(m["seeds"] == 1 for m in table["methods"].values())
     assert (tmp_path / "table.csv").read_text().startswith("table,")
     lines = []
     grid.run(grid.GridArgs(methods=("ours", "dwl"), seeds=(1,), iterations=8, num_envs=4, parallel=1, out=tmp_path,
@@ -52,3 +53,4 @@ def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path, capsys):
              log=lines.append)
     assert not any(line.startswith("training") for line in lines)
     assert sum("up to date" in line for line in lines) == 3, lines   # two evaluations, the figures
+    assert any(line.strip().startswith("dwl ") and "falls" in line for line in lines), lines  # the table, again

@@ -247,6 +247,23 @@ def seed_means(records: list[dict]) -> list[dict]:
     return out
 
 
+def method_summary(records: list[dict]) -> dict[str, dict]:
+    """Per method, over its speed-sweep records (every speed, kind and level): each checkpoint's (seed's) mean
+    success and fall rate, and their mean and std over the seeds - the one-line-per-method table of a grid."""
+    per: dict[str, dict[str, list[dict]]] = {}
+    for r in records:
+        if r.get("protocol", "speed_sweep") == "speed_sweep" and "kind" in r:
+            per.setdefault(r.get("method") or r["policy"], {}).setdefault(r["policy"], []).append(r)
+    out = {}
+    for method, policies in per.items():
+        row = {"seeds": len(policies)}
+        for rate in ("success_rate", "fall_rate"):
+            v = torch.tensor([sum(r[rate] for r in rs) / len(rs) for rs in policies.values()], dtype=torch.float64)
+            row[rate] = {"per_seed": v.tolist(), "mean": float(v.mean()), "std": float(v.std(unbiased=False))}
+        out[method] = row
+    return out
+
+
 def write_csv(path: Path, records: list[dict]) -> None:
     """The records, then the seed means, as one CSV (a "table" column tells them apart); written atomically."""
     import csv
