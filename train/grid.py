@@ -28,14 +28,15 @@ from pathlib import Path
 from train.cli import VARIANTS, UsageError, Variant, parse_args
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
-# cpu: what a 2-core machine trains in a night: 21 runs x 300 iterations on the MuJoCo backend, two at a time
-# (a run of ours: ~2.2 s per iteration on a Zen 3-class core, ~9 s on a Zen 1 core without AVX-512), each evaluated
-# with 10 robots per level.
+# cpu: what a 2-core machine runs within one sitting: 21 runs x 60 iterations of 128 robots on the MuJoCo backend, two
+# at a time, each evaluated with 4 robots per level (a run of ours: ~5 s per iteration on a Zen 1 core). It shows the
+# pipeline, not an ordering: walking took ~20M env steps on flat ground, a run here is 0.18M (--iterations and
+# --num-envs give longer runs).
 SCALES = {
     "gpu": {"num_envs": 4096, "iterations": 10000, "sim": "newton", "device": "cuda:0", "parallel": 1,
             "eval": []},
-    "cpu": {"num_envs": 256, "iterations": 300, "sim": "mujoco", "device": "cpu", "parallel": 2,
-            "eval": ["--robots-per-level", "10", "--speeds", "0.15", "0.5", "1.0", "--ablation-robots", "10"]},
+    "cpu": {"num_envs": 128, "iterations": 60, "sim": "mujoco", "device": "cpu", "parallel": 2,
+            "eval": ["--robots-per-level", "4", "--speeds", "0.15", "0.5", "1.0", "--ablation-robots", "4"]},
 }
 
 
