@@ -55,6 +55,7 @@ def test_figures_from_synthetic_logs_and_results(tmp_path, capsys):
     for name in ("terrain_level", "success_vs_speed", "success_vs_terrain"):
         assert (out / f"{name}.png").stat().st_size > 10_000 and (out / f"{name}.json").is_file()
     speed = json.loads((out / "success_vs_speed.json").read_text())
+    assert list(speed) == ["ours", "dwl"]   # the registry's order (as the grid's --runs): a method keeps its colour
     # ours at 0.5 m/s: seeds 0.9 - 0.1 - 0.05 = 0.75 and 0.70 -> mean 72.5 %, population std 2.5 %
     i = speed["ours"]["x"].index(0.5)
     assert speed["ours"]["mean"][i] == pytest.approx(72.5) and speed["ours"]["std"][i] == pytest.approx(2.5)
