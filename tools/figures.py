@@ -24,6 +24,7 @@ from pathlib import Path
 
 from cra_warp.atomic_json import write_json
 from tools.curves import parse_arm, read_scalars
+from train.cli import VARIANTS
 
 LEVEL_TAG = "/terrain_level"
 LEG_JOINTS = ("hipPitch", "hipRoll", "kneePitch", "anklePitch")  # the paper's scatter: the major leg joints
@@ -75,12 +76,10 @@ def _per_policy(records: list[dict], key) -> dict:
         x = key(r)
         if x is not None:
             cells.setdefault((r.get("method", r["policy"]), x, r["policy"]), []).append(r["success_rate"])
-    from train.cli import VARIANTS
-
     # methods in the registry's order, as the grid passes --runs: a method keeps its colour across the figures
     rank = {m: k for k, m in enumerate(VARIANTS)}
     out: dict[str, dict] = {}
-    for (m, x, _), rates in sorted(cells.items(), key=lambda kv: (rank.get(kv[0][0], len(rank)), kv[0][0], kv[0][1])):
+    for (m, x, _), rates in sorted(cells.items(), key=lambda kv: (rank.get(kv[0][0], len(rank)), kv[0])):
         out.setdefault(m, {}).setdefault(x, []).append(statistics.mean(rates))
     return out
 

@@ -29,7 +29,7 @@ from train.cli import VARIANTS, UsageError, Variant, parse_args
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
 # cpu: what a 2-core machine runs within one sitting: 21 runs x 60 iterations of 128 robots on the MuJoCo backend, two
-# at a time, each evaluated with 4 robots per level (a run of ours: ~5 s per iteration on a Zen 1 core). It shows the
+# at a time, each evaluated with 4 robots per level (a run of ours: ~5.5 s per iteration on a Zen 1 core). It shows the
 # pipeline, not an ordering: walking took ~20M env steps on flat ground, a run here is 0.18M (--iterations and
 # --num-envs give longer runs).
 SCALES = {
