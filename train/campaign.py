@@ -1,0 +1,214 @@
+"""cra-campaign: long training runs that outlive the machine they started on.
+
+    cra-campaign save climb ~/cra_runs/climb/control_s1 ~/cra_runs/climb/sigma_s1 --target 3000
+    cra-campaign resume climb [--out ~/cra_runs/climb] [--cores 0]
+
+A campaign is a folder robots/<robot>/campaigns/<name>/ in the repository: for each of its runs the newest
+checkpoint (actor, critic, optimizer, curriculum levels and the run's whole resolved config: a few MB), a
+campaign.json and a RESUME.md with the one command that continues every run on a fresh clone. ``save`` replaces
+what the folder held (never accumulates); ``resume`` restarts each run with the arguments stored in its checkpoint,
+``--resume`` from the committed file, logging to <out>/<run>/, all on the given cores (one core shared by every
+run by default), until the campaign's target iteration. The checkpoint is the source of truth: nothing else is
+needed to continue, so a lost ~/cra_runs costs at most the iterations since the last save.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+from tyro.conf import Positional
+
+from cra_warp.atomic_json import write_json
+from train.cli import UsageError, parse_args
+
+ROOT = Path(__file__).resolve().parent.parent / "robots" / "adam_lite" / "campaigns"
+# cra-train arguments that belong to one start of a run, not to the run: resume sets its own.
+_PER_START = ("resume", "init", "log_dir", "max_iterations")
+
+
+@dataclass
+class CampaignArgs:
+    action: Positional[Literal["save", "resume"]]
+    name: Positional[str]                       # the campaign's folder under robots/adam_lite/campaigns/
+    runs: Positional[tuple[Path, ...]] = ()     # save: each run's --log-dir (its newest model_<it>.pt is kept)
+    target: int | None = None                   # save: the iteration every run trains to (default: kept, or 3000)
+    out: Path | None = None                     # resume: where the runs continue (default ~/cra_runs/<name>)
+    cores: tuple[int, ...] = (0,)               # resume: the cores every run shares (taskset)
+    iterations: int | None = None               # resume: at most this many more iterations per run
+    only: tuple[str, ...] = ()                  # resume: these runs only (default: every run)
+    root: Path = ROOT                           # where campaigns live (tests use a temporary one)
+    dry_run: bool = False                       # resume: print the commands, run nothing
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def train_argv(args: dict) -> list[str]:
+    """cra-train flags for a checkpoint's stored TrainArgs, without the per-start ones."""
+    argv = []
+    for key, value in args.items():
+        if key in _PER_START or value is None:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if isinstance(value, bool):
+            argv.append(flag if value else "--no-" + key.replace("_", "-"))
+        elif isinstance(value, (list, tuple)):
+            if value:
+                argv += [flag, *map(str, value)]
+        else:
+            argv += [flag, str(value)]
+    return argv
+
+
+def _stored(path: Path) -> tuple[int, dict]:
+    from cra_warp.learning.checkpoint import read_checkpoint
+
+    saved = read_checkpoint(path)
+    config = (saved.get("infos") or {}).get("config")
+    if not config or "args" not in config:
+        raise UsageError(f"{path}: the checkpoint holds no run config (trained before runs stored theirs)")
+    return int(saved["iter"]), config
+
+
+def save(a: CampaignArgs) -> Path:
+    from train.train import newest_checkpoint
+
+    if not a.runs:
+        raise UsageError("save needs at least one run directory")
+    folder = a.root / a.name
+    old = json.loads((folder / "campaign.json").read_text()) if (folder / "campaign.json").is_file() else {}
+    target = a.target or old.get("target", 3000)
+    picked = {}
+    for run in a.runs:
+        ckpt = newest_checkpoint(run) if run.is_dir() else None
+        if ckpt is None:
+            raise UsageError(f"{run}: no model_<it>.pt under it")
+        picked[run.name] = ckpt
+    if len(picked) != len(a.runs):
+        raise UsageError("the run directories must have distinct names (they name the campaign's runs)")
+    staging = folder.with_name(folder.name + ".saving")
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir(parents=True)
+    runs = {}
+    for label, ckpt in picked.items():
+        it, config = _stored(ckpt)
+        (staging / label).mkdir()
+        shutil.copy2(ckpt, staging / label / ckpt.name)
+        steps = (it + 1) * config["args"]["num_envs"] * config["learner"]["num_steps_per_env"]
+        runs[label] = {"checkpoint": f"{label}/{ckpt.name}", "iteration": it, "env_steps": steps,
+                       "args": config["args"]}
+    manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"), "cpu": cpu_model(),
+                "runs": runs}
+    write_json(staging / "campaign.json", manifest, indent=2)
+    (staging / "RESUME.md").write_text(resume_md(manifest))
+    # swap in one step: the old folder is removed only once the new one is complete
+    if folder.exists():
+        trash = folder.with_name(folder.name + ".old")
+        shutil.rmtree(trash, ignore_errors=True)
+        folder.rename(trash)
+        staging.rename(folder)
+        shutil.rmtree(trash)
+    else:
+        staging.rename(folder)
+    return folder
+
+
+def resume_md(m: dict) -> str:
+    rows = "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M | `{' '.join(train_argv(r['args']))}` |"
+                     for k, r in m["runs"].items())
+    return f"""# Campaign {m['name']}
+
+Saved {m['saved']} on {m['cpu']}: each run's newest checkpoint (actor, critic, optimizer, curriculum levels, config).
+Continue every run to iteration {m['target']} on a fresh clone (one core shared by all runs; logs and checkpoints in
+~/cra_runs/{m['name']}/<run>/):
+
+```bash
+bash tools/setup.sh && nohup .venv/bin/cra-campaign resume {m['name']} > ~/cra_runs_{m['name']}.log 2>&1 &
+```
+
+Then, before the session ends, save the newest checkpoints back here (this replaces the folder):
+
+```bash
+.venv/bin/cra-campaign save {m['name']} {' '.join(f'~/cra_runs/{m["name"]}/{k}' for k in m['runs'])}
+```
+
+| run | iteration | env steps | cra-train arguments (besides --resume, --log-dir, --max-iterations) |
+|---|---|---|---|
+{rows}
+"""
+
+
+def resume(a: CampaignArgs) -> int:
+    folder = a.root / a.name
+    if not (folder / "campaign.json").is_file():
+        have = sorted(p.name for p in a.root.glob("*/campaign.json")) if a.root.is_dir() else []
+        raise UsageError(f"no campaign {a.name!r} under {a.root} (have: {', '.join(have) or 'none'})")
+    manifest = json.loads((folder / "campaign.json").read_text())
+    out = a.out or Path.home() / "cra_runs" / a.name
+    procs = []
+    unknown = set(a.only) - set(manifest["runs"])
+    if unknown:
+        raise UsageError(f"campaign {a.name!r} has no run(s) {sorted(unknown)} (has: {', '.join(manifest['runs'])})")
+    for label, run in manifest["runs"].items():
+        if a.only and label not in a.only:
+            continue
+        ckpt = folder / run["checkpoint"]
+        it, config = _stored(ckpt)
+        left = manifest["target"] - it
+        if a.iterations is not None:
+            left = min(left, a.iterations)
+        if left <= 0:
+            print(f"{label}: at iteration {it}, the target {manifest['target']} is reached")
+            continue
+        log_dir = out / label
+        argv = [sys.executable, "-m", "train.train", *train_argv(config["args"]), "--resume", str(ckpt),
+                "--log-dir", str(log_dir), "--max-iterations", str(left)]
+        print(f"{label}: from iteration {it}, {left} more: {shlex.join(argv)}")
+        if a.dry_run:
+            continue
+        log_dir.mkdir(parents=True, exist_ok=True)
+        log = open(out / f"{label}.log", "a")
+        cores = set(a.cores)
+        procs.append((label, subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT,
+                                              env={**os.environ, "OMP_NUM_THREADS": "1"},
+                                              preexec_fn=lambda: os.sched_setaffinity(0, cores))))
+    failed = [label for label, p in procs if p.wait() != 0]
+    if failed:
+        print(f"cra-campaign: runs failed: {', '.join(failed)} (see {out}/<run>.log)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        a = parse_args(CampaignArgs, argv, __doc__)
+        if a.iterations is not None and a.iterations < 1:
+            raise UsageError(f"--iterations must be >= 1, got {a.iterations}")
+        if a.action == "save":
+            print(f"saved {save(a)}")
+            return 0
+        return resume(a)
+    except UsageError as e:
+        print(f"cra-campaign: {e}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
