@@ -23,7 +23,23 @@ def test_plan_skips_done_runs_and_resumes_the_rest(tmp_path):
     assert dwl["cmd"] is None and dwl["final"].name == "model_2.pt"
 
 
+def test_the_grid_says_which_recipe_each_method_ran(tmp_path):
+    """Every run gets the grid's recipe; a method that cannot use part of it (clock_free: no clock) is told so."""
+    a = grid.GridArgs(methods=("ours", "clock_free"), seeds=(1,), out=tmp_path, recipe="paper")
+    ours, free = grid.plan(a)
+    for j in (ours, free):
+        assert j["cmd"][j["cmd"].index("--recipe") + 1] == "paper"
+    assert ours["recipe"] == "paper"
+    lines = []
+    grid.run(grid.GridArgs(methods=("ours", "clock_free"), seeds=(1,), out=tmp_path, dry_run=True), log=lines.append)
+    said = {line.split()[0]: line for line in lines if " recipe " in line}
+    assert said["ours"].split()[-1] == "walk"
+    assert "walk without" in said["clock_free"] and "gait.swing_feedforward" in said["clock_free"]
+    assert "no clock" in said["clock_free"]
+
+
 def test_grid_rejects_bad_values(capsys, tmp_path):
+    one_line_error(capsys, grid.main(["--recipe", "magic", "--out", str(tmp_path)]), "--recipe")
     one_line_error(capsys, grid.main(["--scale", "tpu"]), "--scale")
     one_line_error(capsys, grid.main(["--methods", "magic"]), "--methods")
     one_line_error(capsys, grid.main(["--iterations", "0", "--out", str(tmp_path)]), "--iterations")
@@ -46,6 +62,7 @@ def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path, capsys):
     table = json.loads((tmp_path / "table.json").read_text())
     assert {m["method"] for m in table["seed_means"]} == {"ours", "dwl"}
     assert set(table["methods"]) == {"ours", "dwl"} and all(m["seeds"] == 1 for m in table["methods"].values())
+    assert table["recipes"] == {"ours": "walk", "dwl": "walk"}
     assert (tmp_path / "table.csv").read_text().startswith("table,")
     lines = []
     grid.run(grid.GridArgs(methods=("ours", "dwl"), seeds=(1,), iterations=8, num_envs=4, parallel=1, out=tmp_path,

@@ -38,6 +38,8 @@ from train import train as train_cli
     (["--sim", "mujoco", "--device", "cuda:0"], "--sim mujoco runs on the CPU only"),
     (["--num-envs", "many"], "--num-envs"),                # tyro's own parse errors, as one line too
     (["--no-such-flag"], "Unrecognized options: --no-such-flag"),
+    (["--recipe", "magic"], "--recipe"),
+    (["--log-dir", "/proc/x"], "--log-dir /proc/x"),         # unwritable: one line before any set-up
 ])
 def test_train_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, train_cli.main(args), word)
@@ -114,6 +116,9 @@ def test_export_cli(trained, tmp_path, capsys):
     first, _ = trained
     assert export_cli.main([str(first / "model_1.pt"), "--out", str(tmp_path / "dep")]) == 0
     assert (tmp_path / "dep" / "policy.onnx").is_file()
+    out = capsys.readouterr()
+    assert "onnx_data" in out.out and "Actor Model" not in out.out
+    assert len(out.err.strip().splitlines()) <= 1, out.err  # the exporter's warnings: one summary line at most
     bad = tmp_path / "model_9.pt"
     bad.write_bytes(b"not a checkpoint")
     one_line_error(capsys, export_cli.main([str(bad)]), str(bad))
@@ -258,6 +263,8 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     stored = json.loads((first / "config.json").read_text())
     ckpt = torch.load(first / "model_1.pt", weights_only=False)
     assert ckpt["infos"]["config"] == stored
+    assert stored["args"]["recipe"] == stored["recipe"]["name"] == "walk" and ckpt["infos"]["recipe"] == "walk"
+    assert stored["recipe"]["overrides"]["gait.stride_feedforward"] == stored["env"]["gait"]["stride_feedforward"]
     assert stored["env"]["world"]["backend"] == "newton"
     assert stored["learner"]["ppo"]["num_learning_epochs"] == train_cli.TrainArgs().epochs == 2
     # a stored setting that differs from today's defaults is what the rebuilt env gets
@@ -373,7 +380,11 @@ def test_resume_keeps_the_difficulty_level(tmp_path):
 def test_training_uses_the_curriculum_unless_told_not_to(trained, tmp_path):
     first, _ = trained
     stored = json.loads((first / "config.json").read_text())["env"]["difficulty"]
-    assert stored["commands"] and stored["randomization"] and stored["start"] == 0.0
+    # the walk recipe (the default) keeps the randomisation curriculum and gives commands at full range at once
+    assert not stored["commands"] and stored["randomization"] and stored["start"] == 0.0 and stored["step"] == 0.02
+    _, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
+                                                  log_dir=tmp_path, sim="mujoco", recipe="paper"))
+    assert runner.env.cfg.difficulty.commands and runner.env.cfg.difficulty.randomization
     run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
                                                         log_dir=tmp_path, sim="mujoco", curriculum=False))
     assert not runner.env.difficulty.active and float(runner.env.difficulty.level) == 1.0
@@ -443,3 +454,28 @@ def test_resume_refuses_contrastive_heads_built_for_another_target(trained, caps
                                            "--log-dir", str(first.parent), "--resume", str(first / "model_1.pt"),
                                            "--override", "learner.contrast.target_actor_obs=true"]),
                    "learner.contrast.target_actor_obs=false")
+
+
+def test_what_a_user_reads(tmp_path):
+    """A run ends with its directory and the exported files, third-party warnings summarised in one line; neither
+    a run nor its --resume prints the networks."""
+    import subprocess
+    import sys
+
+    common = [sys.executable, "-m", "train.train", "--num-envs", "4", "--sim", "mujoco", "--max-iterations", "1",
+              "--save-interval", "1", "--log-dir", str(tmp_path)]
+    out = subprocess.run(common, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    lines = out.stdout.strip().splitlines()
+    ends = [line.split(":")[0].strip() for line in lines[-5:]]
+    assert ends == ["run directory", "torchscript", "json", "onnx", "onnx_data"], lines[-5:]
+    assert all(tmp_path in __import__("pathlib").Path(line.split(": ", 1)[1]).parents for line in lines[-5:])
+    noise = [line for line in out.stderr.splitlines() if "Warning" in line and "cra-train:" not in line
+             and "Warp CUDA warning" not in line]
+    assert not noise and out.stderr.count("third-party warnings") <= 1, out.stderr
+    assert "Actor Model" not in out.stdout and "GRU(" not in out.stdout
+    resumed = subprocess.run([*common, "--resume", str(tmp_path), "--no-export"], capture_output=True, text=True,
+                             timeout=600)
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    assert "Actor Model" not in resumed.stdout and "GRU(" not in resumed.stdout, resumed.stdout
+    assert resumed.stdout.strip().splitlines()[-1].startswith("run directory:")

@@ -8,7 +8,12 @@ paper's protocol, draw its figures and the table.
     <out>/eval/<method>-s<seed>.json  cra-eval --protocol paper of the run's final checkpoint (and its .log)
     <out>/figures/                  cra-figures: terrain level, success vs speed, vs stairs / slope, torque scatter
     <out>/table.csv, table.json     every record, each cell's mean and std over seeds, and (table.json "methods",
-                                    printed) each method's success and fall rate over the speed sweep
+                                    printed) each method's success and fall rate over the speed sweep; table.json
+                                    "recipes" says which recipe each method trained with
+
+Every method trains with one recipe (--recipe, envs/recipes.py; walk unless told). A method that cannot use part
+of it runs without that part, and the plan and the table say so: clock_free has no clock, so it trains without the
+recipe's gait.* settings (under walk: no clock feedforward); its fair pair is ours with the same keys left out.
 
 Resumable: a run whose final checkpoint exists is not trained again, an unfinished one resumes from its newest
 checkpoint, and a run's evaluation is redone only when its final checkpoint is newer than its JSON. A run is
@@ -25,6 +30,7 @@ import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from envs.recipes import DEFAULT_RECIPE, RECIPES
 from train.cli import VARIANTS, UsageError, Variant, parse_args
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
@@ -47,6 +53,7 @@ FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_ve
 class GridArgs:
     scale: str = "cpu"                                  # cpu | gpu (see SCALES)
     methods: tuple[Variant, ...] = tuple(VARIANTS)      # registered variants (cra-train --variant)
+    recipe: str = DEFAULT_RECIPE                        # cra-train --recipe of every run (envs/recipes.py)
     seeds: tuple[int, ...] = (1, 2, 3)
     out: Path = Path("grid")
     iterations: int | None = None                       # the scale's unless given
@@ -65,6 +72,14 @@ def _newest(run_dir: Path) -> tuple[int, Path] | None:
     return (int(path.stem.split("_")[1]), path) if path else None
 
 
+def recipe_of(a: GridArgs, method: str) -> str:
+    """The recipe ``method`` runs, in words: the name, and what of it the method cannot use."""
+    from envs.loco_config import LocoConfig
+    from envs.recipes import describe
+
+    return describe(a.recipe, uses_clock=LocoConfig(variant=VARIANTS[method][0]).uses_clock)
+
+
 def plan(a: GridArgs) -> list[dict]:
     """One entry per (method, seed): its run directory, the command left to run (None when done), final ckpt."""
     s = SCALES[a.scale]
@@ -77,13 +92,14 @@ def plan(a: GridArgs) -> list[dict]:
             done_it = newest[0] + 1 if newest else 0
             cmd = None
             if done_it < total:
-                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", m, "--seed", str(seed),
+                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", m, "--recipe", a.recipe,
+                       "--seed", str(seed),
                        "--num-envs", str(a.num_envs or s["num_envs"]), "--sim", s["sim"], "--device", s["device"],
                        "--max-iterations", str(total - done_it), "--log-dir", str(run_dir), "--quiet",
                        "--save-interval", "20", "--no-export"]
                 if newest:
                     cmd += ["--resume", str(run_dir)]
-            jobs.append({"method": m, "seed": seed, "run_dir": run_dir, "cmd": cmd,
+            jobs.append({"method": m, "seed": seed, "run_dir": run_dir, "cmd": cmd, "recipe": recipe_of(a, m),
                          "final": newest[1] if newest and cmd is None else None})
     return jobs
 
@@ -160,6 +176,9 @@ def run(a: GridArgs, log=print) -> list[dict]:
     from train.evaluate import method_summary, seed_means, write_csv
 
     jobs = plan(a)
+    recipes = {m: recipe_of(a, m) for m in a.methods}
+    for m, said in recipes.items():
+        log(f"{m:12} recipe {said}")
     if a.dry_run:
         for j in jobs:
             log(f"{j['method']:12} seed {j['seed']}: " + (" ".join(j["cmd"]) if j["cmd"] else f"done ({j['final']})"))
@@ -180,18 +199,21 @@ def run(a: GridArgs, log=print) -> list[dict]:
     # the table is cheap: always rewritten, so a grid drawn by an older version gains its newer columns
     summary = method_summary(records)
     write_csv(a.out / "table.csv", records)
-    write_json(a.out / "table.json", {"methods": summary, "records": records, "seed_means": seed_means(records)})
+    write_json(a.out / "table.json", {"methods": summary, "recipes": recipes, "records": records,
+                                      "seed_means": seed_means(records)})
     log(f"wrote {a.out / 'table.csv'}; speed sweep, mean (std) over seeds:")
     for m, row in summary.items():
         s, f = row["success_rate"], row["fall_rate"]
         log(f"  {m:12} success {100 * s['mean']:5.1f}% ({100 * s['std']:4.1f})  falls {100 * f['mean']:5.1f}% "
-            f"({100 * f['std']:4.1f})  {row['seeds']} seeds")
+            f"({100 * f['std']:4.1f})  {row['seeds']} seeds, recipe {recipes.get(m, a.recipe)}")
     return jobs
 
 
 def main(argv: list[str] | None = None) -> int:
     try:
         a = parse_args(GridArgs, argv, __doc__)
+        if a.recipe not in RECIPES:
+            raise UsageError(f"--recipe must be one of {', '.join(RECIPES)}, got {a.recipe!r}")
         if a.scale not in SCALES:
             raise UsageError(f"--scale must be one of {', '.join(SCALES)}, got {a.scale!r}")
         bad = [m for m in a.methods if m not in VARIANTS]

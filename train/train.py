@@ -1,6 +1,8 @@
 """cra-train: train the CRA-Loco policy on any Warp device.
 
     cra-train                                   # the default: a ~10 min CPU run on flat ground (128 envs)
+    cra-train --sim mujoco --num-envs 256 --max-iterations 3200   # the walk recipe at the shipped walkers' budget
+    cra-train --recipe paper                    # Table I and the paper's clock as published (envs/recipes.py)
     cra-train --num-envs 4096 --device cuda:0 --task rough --max-iterations 10000
     cra-train --resume runs/<run>/model_40.pt --max-iterations 40   # continues at iteration 41
     cra-train --resume runs/ --log-dir runs/ ...                     # the newest checkpoint under runs/ (campaigns)
@@ -8,13 +10,16 @@
     torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
 
 Variants (paper IV-A): ours (same-step contrast, adaptive clock), sequential (contrast with the next step),
-no_contrast, fixed_cycle, clock_free. Writes TensorBoard logs, checkpoints and, at the end, the exported policy
-(TorchScript, ONNX, deploy JSON) to the run directory.
+no_contrast, fixed_cycle, clock_free. Recipes (envs/recipes.py): walk (the default: what the shipped walkers trained
+with) and paper; a recipe's overrides come before --override's. Writes TensorBoard logs, checkpoints and, at the
+end, the exported policy (TorchScript, ONNX, deploy JSON) to the run directory.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
 import math
 import os
 import random
@@ -23,15 +28,24 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from typing import Literal
+
 from cra_warp.atomic_json import write_json
+from envs.recipes import DEFAULT_RECIPE, RECIPES
 from train.cli import (TASKS, VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args,
                        world_config)
+
+RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices --help lists
 
 
 @dataclass
 class TrainArgs:
     task: Task = "flat"                # rough: the terrain curriculum
     variant: Variant = "ours"
+    # named overrides (envs/recipes.py), applied before --override: walk = what the shipped walkers trained with,
+    # paper = Table I and the paper's clock as published. Unset: walk for a new run (and --init), the checkpoint's
+    # own with --resume (paper for one written before recipes: it ran on the dataclass defaults, which are paper's)
+    recipe: RecipeName | None = None
     num_envs: int = 128                # parallel robots (per process with torchrun)
     device: str = "cpu"                # cpu | cuda:N
     sim: Sim = "newton"                # newton (CPU or CUDA) | mujoco (MuJoCo C, CPU: the fast CPU path)
@@ -68,6 +82,8 @@ def validate(a: TrainArgs) -> None:
         raise UsageError(f"--task must be one of {', '.join(TASKS)}, got {a.task!r}")
     if a.variant not in VARIANTS:
         raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
+    if a.recipe is not None and a.recipe not in RECIPES:
+        raise UsageError(f"--recipe must be one of {', '.join(RECIPES)}, got {a.recipe!r}")
     if a.num_envs < 1:
         raise UsageError(f"--num-envs must be >= 1, got {a.num_envs}")
     if a.max_iterations < 1:
@@ -93,8 +109,41 @@ def validate(a: TrainArgs) -> None:
                          "networks, --resume continues one)")
     if a.init is not None and not a.init.is_file():
         raise UsageError(f"--init {a.init}: no such file")
+    if a.recipe is None:
+        a.recipe = stored_recipe(a.resume) if a.resume is not None else DEFAULT_RECIPE
     check_sim(a.sim, a.device)
     check_device(a.device)
+    if int(os.getenv("RANK", "0")) == 0:  # before minutes of set-up: an unwritable place is one line, not a traceback
+        check_writable(a.log_dir, "--log-dir")
+
+
+def stored_recipe(path: Path) -> str:
+    """The recipe a checkpoint's run trained with: its stored name, or "paper" for a run written before recipes
+    (it trained on the dataclass defaults plus its overrides, and the defaults are the paper recipe)."""
+    from cra_warp.learning.checkpoint import read_checkpoint
+
+    config = (read_checkpoint(path).get("infos") or {}).get("config") or {}
+    name = (config.get("recipe") or {}).get("name") or "paper"
+    if name not in RECIPES:
+        raise UsageError(f"--resume {path}: trained with the recipe {name!r}, which this code does not have "
+                         f"(give --recipe {'|'.join(RECIPES)})")
+    return name
+
+
+def check_writable(path: Path, flag: str) -> None:
+    """UsageError unless a directory can be made at ``path``: tried in its nearest existing ancestor, which is left
+    as it was (a run that fails later leaves no empty log directory behind)."""
+    import tempfile
+
+    base = path.absolute()
+    while not base.exists() and base != base.parent:
+        base = base.parent
+    if not base.is_dir():
+        raise UsageError(f"{flag} {path}: {base} is not a directory")
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".cra-train-", dir=base))
+    except OSError as e:
+        raise UsageError(f"{flag} {path}: cannot write in {base} ({e.strerror or e})") from None
 
 
 def parse_overrides(items: tuple[str, ...]) -> dict[str, object]:
@@ -113,13 +162,50 @@ def parse_overrides(items: tuple[str, ...]) -> dict[str, object]:
     return out
 
 
-def run_config(a: TrainArgs, env, env_cfg, learner) -> dict:
-    """Everything that defines a run, resolved: CLI arguments, env (world, robot-facing task settings) and learner
-    configs, the robot, and the observation layouts the networks were built for."""
+def run_config(a: TrainArgs, env, env_cfg, learner, recipe: dict | None = None) -> dict:
+    """Everything that defines a run, resolved: CLI arguments, the recipe (its name, the overrides it applied and
+    those the method could not use), env (world, robot-facing task settings) and learner configs, the robot, and
+    the observation layouts the networks were built for."""
     from cra_warp.config_io import to_data
 
-    return {"args": to_data(a), "env": to_data(env_cfg), "learner": to_data(learner), "robot": to_data(env.robot),
+    return {"args": to_data(a), "recipe": to_data(recipe or {}), "env": to_data(env_cfg),
+            "learner": to_data(learner), "robot": to_data(env.robot),
             "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
+
+
+def env_config(a: TrainArgs, threads: int = 1, rank: int = 0):
+    """The env config a run trains with: the CLI's choices, then the recipe's overrides (minus what the method
+    cannot use), then --override's. Returns (LocoConfig, learner overrides without "learner.", recipe record)."""
+    from cra_warp.config_io import with_overrides
+    from envs.loco_config import VARIANTS as ENV_VARIANTS, DifficultyConfig, LocoConfig
+    from envs.recipes import resolve
+
+    env_variant = VARIANTS[a.variant][0]
+    assert env_variant in ENV_VARIANTS
+    env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
+                         seed=a.seed + rank, world=world_config(a.sim, threads=threads),
+                         difficulty=DifficultyConfig(commands=a.curriculum, randomization=a.curriculum))
+    from_recipe, dropped = resolve(a.recipe or DEFAULT_RECIPE, a.task, uses_clock=env_cfg.uses_clock)
+    if not a.curriculum:  # --no-curriculum means the whole task from the start, whatever the recipe's curriculum
+        from_recipe = {k: v for k, v in from_recipe.items() if not k.startswith("difficulty.")}
+    overrides = {**from_recipe, **parse_overrides(a.override)}
+    env_over = {k: v for k, v in overrides.items() if not k.startswith("learner.")}
+    learner_over = {k[len("learner."):]: v for k, v in overrides.items() if k.startswith("learner.")}
+    if env_over:
+        try:
+            env_cfg = with_overrides(env_cfg, env_over)
+        except (ValueError, TypeError) as e:
+            raise UsageError(f"--override: {e}") from e
+    return env_cfg, learner_over, {"name": a.recipe or DEFAULT_RECIPE, "overrides": from_recipe,
+                                   "not_used": dropped}
+
+
+@contextlib.contextmanager
+def quiet_stdout():
+    """stdout of the block dropped: rsl-rl's model dumps, Newton's set-up notes (what a user reads is the progress
+    lines and the end); an exception still propagates."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        yield
 
 
 def newest_checkpoint(folder: Path) -> Path | None:
@@ -151,6 +237,26 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
     changed = {k: f"{then.get(k)} -> {v}" for k, v in now.items() if then.get(k) != v}
     if changed and rank == 0 and not fork:  # a fork is a new run with its own settings
         print(f"cra-train: resuming {path} with PPO settings changed from its own: {changed}", file=sys.stderr)
+    # the task as it was: a run resumed under another recipe (or one written before recipes, on the paper's
+    # defaults) would silently train on changed rewards or clock; said in one line, the CLI's value is used
+    then_env, now_env = _flat(stored.get("env", {})), _flat(to_data(env.cfg))
+    moved = {k: f"{then_env[k]} -> {v}" for k, v in now_env.items()
+             if k in then_env and then_env[k] != v and not k.startswith(_RUN_FIELDS)}
+    if moved and rank == 0 and not fork:
+        print(f"cra-train: resuming {path} with env settings changed from its own: {moved}", file=sys.stderr)
+
+
+_RUN_FIELDS = ("num_envs", "device", "seed", "world.")   # what may differ between a run and its resume
+
+
+def _flat(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and v:
+            out |= _flat(v, f"{prefix}{k}.")
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
 
 
 def seed_everything(seed: int) -> None:
@@ -178,12 +284,13 @@ def run(a: TrainArgs):
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
-    from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
-    from train.export import export_run
+    from train.export import export_run, third_party_quiet
     from train.runner import CraRunner
 
     keep_freed_memory()  # batched CPU tensors page-fault on every allocation otherwise (see host_memory)
+    if a.recipe is None:  # run() called without validate(): the same choice
+        a = dataclasses.replace(a, recipe=stored_recipe(a.resume) if a.resume is not None else DEFAULT_RECIPE)
     rank = int(os.getenv("RANK", "0"))
     if a.device.startswith("cuda") and int(os.getenv("WORLD_SIZE", "1")) > 1:  # torchrun: one GPU per rank
         a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")
@@ -192,19 +299,10 @@ def run(a: TrainArgs):
     # the learner's torch threads and the MuJoCo backend's batch threads
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, cores // int(os.getenv("WORLD_SIZE", "1")))
-    env_variant, contrast, actor_kind = VARIANTS[a.variant]
-    env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
-                         seed=a.seed + rank, world=world_config(a.sim, threads=threads),
-                         difficulty=DifficultyConfig(commands=a.curriculum, randomization=a.curriculum))
-    overrides = parse_overrides(a.override)
-    env_over = {k: v for k, v in overrides.items() if not k.startswith("learner.")}
-    learner_over = {k[len("learner."):]: v for k, v in overrides.items() if k.startswith("learner.")}
-    if env_over:
-        try:
-            env_cfg = with_overrides(env_cfg, env_over)
-        except (ValueError, TypeError) as e:
-            raise UsageError(f"--override: {e}") from e
-    env = LocoEnv(env_cfg)
+    _, contrast, actor_kind = VARIANTS[a.variant]
+    env_cfg, learner_over, recipe = env_config(a, threads=threads, rank=rank)
+    with quiet_stdout():  # the backends' set-up notes
+        env = LocoEnv(env_cfg)
     learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
     learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
                                            tau=a.contrast_tau)
@@ -228,24 +326,28 @@ def run(a: TrainArgs):
         learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
         learner.critic_warmup = 0 if has_critic else learner.fork_critic_warmup
     run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")
-    config = run_config(a, env, env_cfg, learner)
-    runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
-                       quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
-                                                "sim": a.sim, "bf16": a.bf16, "config": config})
+    config = run_config(a, env, env_cfg, learner, recipe)
+    with quiet_stdout():  # rsl-rl prints both networks whole; the config holds them
+        runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
+                           quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
+                                                    "sim": a.sim, "bf16": a.bf16, "recipe": a.recipe,
+                                                    "config": config})
     if rank == 0:  # the whole resolved configuration, beside the logs (every checkpoint carries it too)
         run_dir.mkdir(parents=True, exist_ok=True)
         write_json(run_dir / "config.json", config, indent=2)
     infos = None
     if a.resume is not None:
         check_resume(a.resume, env, learner, rank)
-        infos = load_checkpoint(a.resume, runner)
+        with quiet_stdout():
+            infos = load_checkpoint(a.resume, runner)
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     elif a.init is not None:
         check_resume(a.init, env, learner, rank, fork=True)
         if not has_critic and rank == 0:  # a shipped policy keeps its actor only
             print(f"cra-train: {a.init} has no critic: the critic starts fresh and learns alone for "
                   f"{learner.critic_warmup} iterations", file=sys.stderr)
-        infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic})
+        with quiet_stdout():
+            infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic})
     if "difficulty_level" in (infos or {}):
         env.difficulty.level.fill_(infos["difficulty_level"])
     if "terrain_levels" in (infos or {}) and env.ground.curriculum is not None:
@@ -257,8 +359,11 @@ def run(a: TrainArgs):
                   "starts again", file=sys.stderr)
     torch.set_num_threads(threads)
     runner.learn(a.max_iterations)
+    runner.exported = {}
     if rank == 0 and a.export:
-        export_run(runner, env, run_dir / "exported")
+        with third_party_quiet() as silenced:  # the ONNX exporter's notes and UserWarnings
+            runner.exported = export_run(runner, env, run_dir / "exported")
+        runner.silenced_warnings = silenced
     if torch.distributed.is_initialized():  # leave together: a rank exiting mid-collective aborts the others
         torch.distributed.barrier()
         torch.distributed.destroy_process_group()
@@ -271,12 +376,18 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = parse_args(TrainArgs, argv, __doc__)
         validate(args)
-        run_dir, _ = run(args)
+        run_dir, runner = run(args)
     except (UsageError, CheckpointError) as e:
         print(f"cra-train: {e}", file=sys.stderr)
         return 2
     if int(os.getenv("RANK", "0")) == 0:
+        silenced = getattr(runner, "silenced_warnings", [])
+        if silenced:
+            print(f"cra-train: {len(silenced)} third-party warnings during the export silenced ({silenced[0]}, ...)",
+                  file=sys.stderr)
         print(f"run directory: {run_dir}")
+        for kind, path in getattr(runner, "exported", {}).items():
+            print(f"{kind:>12}: {path}")
     return 0
 
 
