@@ -131,6 +131,7 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
                           "--sim", "mujoco", "--json", str(out)]) == 0
     (r,) = json.loads(out.read_text())
     assert r["trial"] == "flat" and r["robots"] == 4 and r["success_rate"] == 1.0
+    assert r["successes"] == 4 and r["success_ci95"] == pytest.approx([0.5101, 1.0], abs=1e-4)  # 4 of 4
     assert r["tracking_error"] == pytest.approx(0.4, abs=0.05)
     assert r["touchdowns_per_s"] == 0.0 and r["single_support"] == 0.0   # it stands on both feet: no steps
 
@@ -230,6 +231,8 @@ def test_seed_means_and_csv(tmp_path):
             for s, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.25))) for lv, rate in enumerate(rates)]
     means = eval_cli.seed_means(recs)
     assert [(m["level"], m["seeds"]) for m in means] == [(0, 2), (1, 2)]
+    # level 0: 4 + 2 of 8 robots over both seeds
+    assert means[0]["robots"] == 8 and means[0]["success_ci95"] == pytest.approx(eval_cli.wilson(6, 8))
     assert means[0]["success_mean"] == pytest.approx(0.75) and means[0]["success_std"] == pytest.approx(0.25)
     assert means[1]["success_mean"] == pytest.approx(0.375) and means[1]["success_std"] == pytest.approx(0.125)
     eval_cli.write_csv(tmp_path / "eval.csv", recs)
@@ -272,3 +275,29 @@ def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
         env.cfg.commands.heading_mode = heading_mode
         env.ground.deployment = dep
     assert len(seen) > 10 and all((c > 0.2).all() for c in seen)
+
+
+def test_wilson_intervals_match_the_published_values_and_tell_small_cells_apart():
+    """The 95% Wilson score interval (Newcombe 1998, table I: 0/10 -> 0-0.2775, 1/29 -> 0.0061-0.1718,
+    81/263 -> 0.2553-0.3662), and what it means for a 10-robot course cell: 30% and 10% overlap."""
+    assert eval_cli.wilson(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)
+    assert eval_cli.wilson(1, 29) == pytest.approx((0.0061, 0.1718), abs=1e-4)
+    assert eval_cli.wilson(81, 263) == pytest.approx((0.2553, 0.3662), abs=1e-4)
+    assert eval_cli.wilson(3, 0) is None
+    lo30, _ = eval_cli.wilson(3, 10)
+    _, hi10 = eval_cli.wilson(1, 10)
+    assert lo30 < hi10
+    rec = eval_cli.with_interval({"success_rate": 0.3, "robots": 10})
+    assert rec["successes"] == 3 and rec["success_ci95"] == pytest.approx(list(eval_cli.wilson(3, 10)))
+    assert "success_ci95" not in eval_cli.with_interval({"success_rate": 0.3})   # no robot count, no interval
+
+
+def test_tables_print_each_rate_with_its_interval(capsys):
+    recs = [{"policy": "a/model.pt", "speed": 0.5, "kind": "stairs_ascend", "level": lv, "difficulty": 0.05 * (lv + 1),
+             "robots": 10, "success_rate": rate, "fall_rate": 1 - rate} for lv, rate in enumerate((0.3, 0.1))]
+    eval_cli.print_table(recs)
+    out = capsys.readouterr().out
+    assert "95% interval, 10 robots per level" in out and "11-60" in out and "2-40" in out
+    flat = [{"policy": "a/model.pt", "speed": 0.5, "trial": "flat", "robots": 200, "success_rate": 0.995}]
+    eval_cli.print_table(flat)
+    assert "97-100" in capsys.readouterr().out

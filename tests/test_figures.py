@@ -34,7 +34,7 @@ def eval_records():
             for kind, d in (("stairs_ascend", (0.05, 0.10)), ("slope_ascend", (2.0, 7.3))):
                 for lv in range(2):
                     recs.append({"policy": pol, "method": method, "train_seed": seed, "protocol": "ablation",
-                                 "speed": 0.15, "kind": kind, "level": lv, "difficulty": d[lv],
+                                 "speed": 0.15, "kind": kind, "level": lv, "difficulty": d[lv], "robots": 10,
                                  "success_rate": base - 0.1 * lv})
     return recs
 
@@ -62,6 +62,12 @@ def test_figures_from_synthetic_logs_and_results(tmp_path, capsys):
     terrain = json.loads((out / "success_vs_terrain.json").read_text())
     assert terrain["stairs_ascend"]["dwl"]["x"] == pytest.approx([5.0, 10.0])   # cm
     assert terrain["slope_ascend"]["ours"]["mean"] == pytest.approx([90.0, 80.0])
+    # each point's robots over both seeds (10 each) and the Wilson interval of their pooled successes (9 + 9 of 20)
+    from train.evaluate import wilson
+
+    assert terrain["slope_ascend"]["ours"]["robots"] == [20, 20]
+    assert terrain["slope_ascend"]["ours"]["ci95"][0] == pytest.approx([100 * v for v in wilson(18, 20)])
+    assert "ci95" not in speed["ours"]   # the sweep's records here give no robot count: no interval
     levels = json.loads((out / "terrain_level.json").read_text())
     assert len(levels["dwl"]) == 2 and levels["dwl"][1][19] == pytest.approx([19, 0.38])
 

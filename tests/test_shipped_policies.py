@@ -46,3 +46,37 @@ def test_shipped_policy_walks_and_its_export_acts_as_its_checkpoint(checkpoint):
         for obs in seen:  # robot 0's first observations, fed to both in order (the GRU carries state)
             want = policy({"policy": obs.expand(env.num_envs, -1)})[:1]
             torch.testing.assert_close(jit(obs), want, atol=1e-5, rtol=0)
+
+
+@pytest.mark.parametrize("folder", [p.parent for p in POLICIES], ids=lambda p: p.name)
+def test_shipped_onnx_with_its_data_file_acts_as_the_torchscript(folder, tmp_path):
+    """Every sim-to-sim figure runs the ONNX graph (cra_warp.deploy, cra-sim2sim), so the shipped .onnx with its
+    .onnx.data (the weights) must load in onnxruntime and give the TorchScript's actions to 1e-5, step by step with
+    the GRU state fed back; without the data file it must not load at all."""
+    import json
+    import shutil
+
+    import numpy as np
+    import onnxruntime as ort
+
+    net = json.loads((folder / "policy.json").read_text())["network"]
+    assert (folder / "policy.onnx.data").is_file(), f"{folder.name} ships no policy.onnx.data"
+    session = ort.InferenceSession(str(folder / "policy.onnx"), providers=["CPUExecutionProvider"])
+    assert [i.name for i in session.get_inputs()] == ["obs", "h_in"]
+    jit = torch.jit.load(str(folder / "policy.pt"))
+    jit.reset()
+    g = torch.Generator().manual_seed(0)
+    h = np.zeros(net["hidden_state_shape"], dtype=np.float32)
+    worst = 0.0
+    for _ in range(40):
+        obs = torch.randn(1, net["obs_dim"], generator=g)
+        with torch.inference_mode():
+            want = jit(obs).numpy()
+        got, h = session.run(["actions", "h_out"], {"obs": obs.numpy(), "h_in": h})
+        assert got.shape == (1, net["action_dim"])
+        worst = max(worst, float(np.abs(got - want).max()))
+    assert worst < 1e-5, f"ONNX and TorchScript differ by {worst:.2e}"
+    assert np.abs(h).max() > 0  # the state moved: the recurrence was exercised
+    shutil.copy(folder / "policy.onnx", tmp_path / "policy.onnx")  # the graph alone, its weights left behind
+    with pytest.raises(Exception):
+        ort.InferenceSession(str(tmp_path / "policy.onnx"), providers=["CPUExecutionProvider"])

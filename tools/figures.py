@@ -6,7 +6,8 @@
     terrain_level.png       terrain level vs iteration per method (TensorBoard "/terrain_level"; seeds thin,
                             their mean thick)
     success_vs_speed.png    success rate vs commanded speed per method: cra-eval's speed sweep, each policy's rate
-                            over every kind and level, mean +- std over the method's seeds
+                            over every kind and level, mean +- std over the method's seeds; shaded (and in the
+                            JSON: robots, ci95) the 95% Wilson interval of all its robots at that speed
     success_vs_terrain.png  success rate vs stair height and vs slope at 0.15 m/s (cra-eval's ablation; the
                             speed sweep's 0.15 m/s records when there is no ablation), error bars over seeds
     torque_velocity.png     joint velocity vs torque of the leg joints of one policy climbing stairs (a rollout of
@@ -84,7 +85,27 @@ def _per_policy(records: list[dict], key) -> dict:
     return out
 
 
-def _errorbars(ax, per: dict, scale: float = 1.0) -> dict:
+def _pooled(records: list[dict], key) -> dict:
+    """{method: {x: (successes, robots)}} over every record at x of every seed; robots None when a record does
+    not say how many robots it had (then no interval is drawn)."""
+    from train.evaluate import with_interval
+
+    out: dict[str, dict] = {}
+    for r in map(with_interval, records):
+        x = key(r)
+        if x is None:
+            continue
+        m = r.get("method", r["policy"])
+        k, n = out.setdefault(m, {}).get(x, (0, 0))
+        out[m][x] = (None, None) if n is None or "successes" not in r else (k + r["successes"], n + r["robots"])
+    return out
+
+
+def _errorbars(ax, per: dict, scale: float = 1.0, pooled: dict | None = None) -> dict:
+    """Mean +- std over seeds per x; where the records give robot counts, the 95% Wilson interval of every seed's
+    robots together is shaded behind (how far the robot count alone lets the mean be trusted)."""
+    from train.evaluate import wilson
+
     drawn = {}
     for k, (m, xs) in enumerate(per.items()):
         x = sorted(xs)
@@ -93,6 +114,12 @@ def _errorbars(ax, per: dict, scale: float = 1.0) -> dict:
         ax.errorbar([v * scale for v in x], mean, yerr=std, color=f"C{k}", marker="o", capsize=3,
                     label=f"{m} ({max(len(v) for v in xs.values())} seeds)")
         drawn[m] = {"x": [v * scale for v in x], "mean": mean, "std": std, "seeds": [len(xs[v]) for v in x]}
+        counts = [(pooled or {}).get(m, {}).get(v, (None, None)) for v in x]
+        if all(n for _, n in counts):
+            ci = [wilson(s, n) for s, n in counts]
+            drawn[m] |= {"robots": [n for _, n in counts], "ci95": [[100 * lo, 100 * hi] for lo, hi in ci]}
+            ax.fill_between([v * scale for v in x], [100 * lo for lo, _ in ci], [100 * hi for _, hi in ci],
+                            color=f"C{k}", alpha=0.12, lw=0)
     ax.set_ylim(-5, 105)
     ax.grid(alpha=0.3)
     ax.legend()
@@ -105,7 +132,7 @@ def success_vs_speed(records: list[dict], path: Path) -> dict:
         raise ValueError("no course records of a speed sweep in --eval (run cra-eval --protocol paper)")
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6, 4))
-    data = _errorbars(ax, _per_policy(sweep, lambda r: r["speed"]))
+    data = _errorbars(ax, _per_policy(sweep, lambda r: r["speed"]), pooled=_pooled(sweep, lambda r: r["speed"]))
     ax.set(xlabel="command velocity [m/s]", ylabel="success rate [%]", title="Success vs command velocity")
     _save(fig, path, data)
     return data
@@ -123,7 +150,8 @@ def success_vs_terrain(records: list[dict], path: Path, speed: float = 0.15) -> 
     data = {}
     for ax, (kind, label, scale) in zip(axes, panels):
         rs = [r for r in course if r["kind"] == kind]
-        data[kind] = _errorbars(ax, _per_policy(rs, lambda r: r["difficulty"]), scale)
+        data[kind] = _errorbars(ax, _per_policy(rs, lambda r: r["difficulty"]), scale,
+                                pooled=_pooled(rs, lambda r: r["difficulty"]))
         ax.set(xlabel=label, ylabel="success rate [%]", title=f"{kind.split('_')[0]} at {speed} m/s")
     _save(fig, path, data)
     return data

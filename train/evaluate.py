@@ -74,6 +74,28 @@ PAPER_ABLATION = {"speed": 0.15, "kinds": ("stairs_ascend", "slope_ascend")}
 DEFAULT_SPEEDS, DEFAULT_ROBOTS = (0.5,), 10          # without the protocol
 
 
+def wilson(successes: float, n: int, z: float = 1.96) -> tuple[float, float] | None:
+    """The 95% Wilson score interval of a success rate of ``successes`` out of ``n`` robots (None for n = 0).
+    Unlike rate +- 1.96 sqrt(p(1-p)/n) it stays within [0, 1] and is not empty at 0 or n: 3 of 10 reads
+    0.11-0.60, so two course cells of 10 robots reading 30% and 10% do not differ by more than chance."""
+    if not n:
+        return None
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def with_interval(record: dict) -> dict:
+    """``record`` with its success count and 95% Wilson interval (from success_rate and robots; records written
+    before the interval was recorded get it here too)."""
+    n = record.get("robots")
+    if not n or record.get("success_rate") is None:
+        return record
+    k = round(record["success_rate"] * n)
+    return {**record, "successes": k, "success_ci95": list(wilson(k, n))}
+
+
 class Tally:
     """Per-robot outcome of one deployment: a robot succeeds at the first step its base is within the target
     radius, provided it has not fallen before; falls after success do not undo it."""
@@ -240,10 +262,15 @@ def seed_means(records: list[dict]) -> list[dict]:
     out = []
     for (method, protocol, trial, speed, lateral, yaw_rate, kind, level), rs in groups.items():
         v = torch.tensor([r["success_rate"] for r in rs], dtype=torch.float64)
+        pooled = [with_interval(r) for r in rs]
+        robots = sum(r.get("robots") or 0 for r in pooled) if all(r.get("robots") for r in pooled) else None
+        ci = wilson(sum(r["successes"] for r in pooled), robots) if robots else None
         out.append({"method": method, "protocol": protocol, "trial": trial, "speed": speed, "lateral": lateral,
                     "yaw_rate": yaw_rate, "kind": kind,
                     "level": level, "difficulty": rs[0].get("difficulty"), "seeds": len(rs),
-                    "success_mean": float(v.mean()), "success_std": float(v.std(unbiased=False))})
+                    "success_mean": float(v.mean()), "success_std": float(v.std(unbiased=False)),
+                    # every seed's robots together: how sure the mean is from the robot count alone
+                    "robots": robots, "success_ci95": list(ci) if ci else None})
     return out
 
 
@@ -308,8 +335,8 @@ def _run(a: EvalArgs) -> list[dict]:
                 top = env.cfg.commands.ang_vel_yaw[1]
                 if abs(wz) > top:
                     raise UsageError(f"--yaw-rates must be within the training range +-{top} rad/s, got {wz}")
-                records.append({"policy": name, "speed": vx, "trial": "flat", "robots": a.robots,
-                                "seconds": a.seconds, **flat_trial(env, act, vx, a.seconds, vy, wz)})
+                records.append(with_interval({"policy": name, "speed": vx, "trial": "flat", "robots": a.robots,
+                                              "seconds": a.seconds, **flat_trial(env, act, vx, a.seconds, vy, wz)}))
         return records
     course = EvalCourseConfig(kinds=a.kinds or EVAL_KINDS)
     num_envs = len(course.kinds) * course.num_levels * a.robots_per_level
@@ -326,9 +353,10 @@ def _run(a: EvalArgs) -> list[dict]:
             falls = c.success_rate(dep, tally.fell)
             for k, kind in enumerate(c.kinds):
                 for lv in range(c.cfg.num_levels):
-                    records.append({"policy": name, "speed": speed, "kind": kind, "level": lv,
-                                    "difficulty": float(c.difficulty[k, lv]), "robots": a.robots_per_level,
-                                    "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv])})
+                    records.append(with_interval({
+                        "policy": name, "speed": speed, "kind": kind, "level": lv,
+                        "difficulty": float(c.difficulty[k, lv]), "robots": a.robots_per_level,
+                        "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv])}))
     return records
 
 
@@ -352,8 +380,9 @@ def print_table(records: list[dict]) -> None:
         for m in means:
             where = (m["kind"] and f"{m['kind']} level {m['level']}"
                      or f"{m['trial']} v_y {m['lateral'] or 0:+.2f} yaw {m['yaw_rate'] or 0:+.2f}")
+            ci = f" [{_pct(m['success_ci95'])}] of {m['robots']} robots" if m.get("success_ci95") else ""
             print(f"  {m['method']:12} {m['protocol'] or '':12} {m['speed']:5.2f} m/s {where:24} "
-                  f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}")
+                  f"{100 * m['success_mean']:5.1f} ({100 * m['success_std']:4.1f}) over {m['seeds']}{ci}")
     if records and records[0].get("trial") == "flat":
         names = short_names([r["policy"] for r in records])
         w = max(len("policy"), *map(len, names.values()))
@@ -361,12 +390,13 @@ def print_table(records: list[dict]) -> None:
                 ("yaw err", "tracking_error_yaw", 3), ("mean v_x", "mean_error", 3), ("mean v_y", "mean_error_y", 3),
                 ("mean yaw", "mean_error_yaw", 3),
                 ("steps/s", "touchdowns_per_s", 2), ("one foot", "single_support", 2))
-        print(f"{'policy':{w}} {'v_x':>5} {'v_y':>5} {'yaw':>5} {'robots':>6} {'success':>8} "
+        print(f"{'policy':{w}} {'v_x':>5} {'v_y':>5} {'yaw':>5} {'robots':>6} {'success':>8} {'95% CI':>9} "
               + " ".join(f"{c:>{max(len(c), 7)}}" for c, _, _ in cols))
-        for r in records:
+        for r in map(with_interval, records):
             vals = ("-" if r.get(k) is None else f"{r[k]:.{p}f}" for _, k, p in cols)
             print(f"{names[r['policy']]:{w}} {r['speed']:5.2f} {r.get('lateral', 0.0):5.2f} "
                   f"{r.get('yaw_rate', 0.0):5.2f} {r['robots']:6d} {100 * r['success_rate']:7.1f}% "
+                  f"{_pct(r.get('success_ci95')):>9} "
                   + " ".join(f"{v:>{max(len(c), 7)}}" for v, (c, _, _) in zip(vals, cols)))
         return
     units = {"stairs": ("cm", 100), "slope": ("deg", 1), "uneven": ("cm", 100)}
@@ -374,14 +404,20 @@ def print_table(records: list[dict]) -> None:
     for r in records:
         blocks.setdefault((r["policy"], r["speed"], r.get("protocol")), []).append(r)
     for (policy, speed, protocol), rs in blocks.items():
-        print(f"\n{policy} @ {speed:.2f} m/s{f' ({protocol})' if protocol else ''}: success % (falls %), "
-              f"{rs[0]['robots']} robots per level")
+        print(f"\n{policy} @ {speed:.2f} m/s{f' ({protocol})' if protocol else ''}: success % (falls %) and the "
+              f"success's 95% interval, {rs[0]['robots']} robots per level")
         for kind in dict.fromkeys(r["kind"] for r in rs):
-            row = [r for r in rs if r["kind"] == kind]
+            row = [with_interval(r) for r in rs if r["kind"] == kind]
             unit, scale = units[kind.split("_")[0]]
             print(f"  {kind:15} " + " ".join(f"{r['difficulty'] * scale:>6.0f}{unit:<3}" for r in row))
             print(f"  {'':15} " + " ".join(f"{100 * r['success_rate']:>4.0f} ({100 * r['fall_rate']:>2.0f})"
                                            for r in row))
+            print(f"  {'':15} " + " ".join(f"{_pct(r.get('success_ci95')):>9}" for r in row))
+
+
+def _pct(ci) -> str:
+    """A 95% interval as "lo-hi" in whole percent ("-" without one)."""
+    return f"{100 * ci[0]:.0f}-{100 * ci[1]:.0f}" if ci else "-"
 
 
 def main(argv: list[str] | None = None) -> int:

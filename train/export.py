@@ -15,7 +15,9 @@ limits and rate, held joints, gait-clock constants and the control period.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -99,6 +101,35 @@ def deploy_metadata(env) -> dict:
     }
 
 
+@contextlib.contextmanager
+def third_party_quiet():
+    """Python warnings and the ONNX exporter's log records of the block kept off the terminal; yields a list that
+    holds one short line per silenced message when the block ends (for a one-line summary). Ours are
+    UsageError/CheckpointError, not warnings, so nothing a user must act on is hidden."""
+    import logging
+    import warnings
+
+    silenced: list[str] = []
+
+    class Count(logging.Handler):
+        def emit(self, record):
+            silenced.append(f"{record.name.split('.')[0]}: {record.getMessage()[:60]}")
+
+    loggers = [logging.getLogger(n) for n in ("torch.onnx", "torch.export", "onnxscript")]
+    saved = [(lg.propagate, lg.handlers[:]) for lg in loggers]
+    handler = Count(logging.WARNING)
+    for lg in loggers:
+        lg.propagate, lg.handlers = False, [handler]
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            yield silenced
+    finally:
+        for lg, (propagate, handlers) in zip(loggers, saved):
+            lg.propagate, lg.handlers = propagate, handlers
+    silenced[:0] = [f"{w.category.__name__}: {str(w.message)[:60]}" for w in caught]
+
+
 def export_run(runner, env, out_dir: Path) -> dict:
     from cra_warp.learning.export import export_policy
 
@@ -136,9 +167,13 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         a = parse_args(ExportArgs, argv, __doc__)
-        runner, env = runner_for_checkpoint(a.checkpoint)
+        with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl's model dumps
+            runner, env = runner_for_checkpoint(a.checkpoint)
         out = a.out or a.checkpoint.parent / "exported"
-        paths = export_run(runner, env, out)
+        with third_party_quiet() as silenced:
+            paths = export_run(runner, env, out)
+        if silenced:
+            print(f"cra-export: {len(silenced)} third-party warnings silenced ({silenced[0]}, ...)", file=sys.stderr)
         if a.ship:
             paths |= ship_checkpoint(a.checkpoint, out)
     except (UsageError, CheckpointError) as e:
