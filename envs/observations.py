@@ -44,3 +44,34 @@ def privileged_layout(num_joints: int, num_feet: int, foot_map_cells: int, actor
 
 def size(layout: dict[str, slice]) -> int:
     return max(s.stop for s in layout.values())
+
+
+# The left-right mirror (sagittal plane) of the actor's inputs and actions, for symmetry losses and augmentation: the
+# mirrored robot's observation is sign * obs[index]. Velocities and gravity: y flips; angular velocities are axial,
+# so x and z flip. The clock: the legs swap when the global phase moves half a cycle (psi = 0.5) and the offsets
+# d1, d2 trade places, so (sin, cos) of the phase change sign and d0 keeps its value.
+_VECTOR_SIGNS = {"command": (1.0, -1.0, -1.0), "gravity": (1.0, -1.0, 1.0), "ang_vel": (-1.0, 1.0, -1.0),
+                 "avg_ang_speed": (-1.0,), "gait_phase": (-1.0, -1.0)}
+
+
+def action_mirror(robot, uses_clock: bool) -> tuple[list[int], list[float]]:
+    """(index, sign) per action: the mirrored robot's action is sign * a[index] (joint offsets, then d0, d1, d2)."""
+    index, sign = robot.mirror_joints()
+    if uses_clock:
+        j = robot.num_joints
+        index, sign = index + [j, j + 2, j + 1], sign + [1.0, 1.0, 1.0]
+    return index, sign
+
+
+def actor_mirror(layout: dict[str, slice], robot, uses_clock: bool) -> tuple[list[int], list[float]]:
+    """(index, sign) per actor input of ``layout`` (actor_layout's) for ``robot``."""
+    joints = robot.mirror_joints()
+    parts = {"joint_pos": joints, "joint_vel": joints, "prev_action": action_mirror(robot, uses_clock)}
+    index, sign = [0] * size(layout), [1.0] * size(layout)
+    for name, sl in layout.items():
+        part_index, part_sign = parts.get(name) or (list(range(sl.stop - sl.start)), list(_VECTOR_SIGNS[name]))
+        if len(part_index) != sl.stop - sl.start:
+            raise ValueError(f"mirror of {name!r}: {len(part_index)} entries for a slice of {sl.stop - sl.start}")
+        for k, (i, s) in enumerate(zip(part_index, part_sign)):
+            index[sl.start + k], sign[sl.start + k] = sl.start + i, s
+    return index, sign

@@ -52,6 +52,10 @@ class RobotConfig:
     # or turns its toes anticlockwise seen from above.
     lateral_joints: tuple[tuple[str, float], ...] = ()
     turn_joints: tuple[tuple[str, float], ...] = ()
+    # The left-right mirror through the sagittal (x-z) plane: joints named <j>_Left and <j>_Right swap, and the
+    # joints listed here by name without side (roll and yaw axes on this kind of robot) change sign; the rest keep
+    # their angle (tests check it through forward kinematics).
+    mirror_negated: tuple[str, ...] = ()
 
     def __post_init__(self):
         n = len(self.joint_names)
@@ -73,6 +77,27 @@ class RobotConfig:
             if legs and (len(legs) != len(self.foot_links) or any(j not in self.joint_names or abs(sign) != 1
                                                                   for j, sign in legs)):
                 raise ValueError(f"RobotConfig.{f} needs one (driven joint, +-1) per foot, got {legs}")
+        bases = {n.rsplit("_", 1)[0] for n in self.joint_names} | set(self.joint_names)
+        unknown = [j for j in self.mirror_negated if j not in bases]
+        if unknown:
+            raise ValueError(f"RobotConfig.mirror_negated names no driven joint: {unknown}")
+        missing = [n for n in self.joint_names if n.endswith(("_Left", "_Right")) and
+                   (n.rsplit("_", 1)[0] + ("_Right" if n.endswith("_Left") else "_Left")) not in self.joint_names]
+        if missing:
+            raise ValueError(f"RobotConfig.joint_names: {missing} have no joint on the other side")
+
+    def mirror_joints(self) -> tuple[list[int], list[float]]:
+        """(index, sign) per joint: joint i of the mirrored robot is sign[i] x joint index[i] of this one."""
+        def partner(n: str) -> str:
+            side = n.rsplit("_", 1)
+            if len(side) == 2 and side[1] in ("Left", "Right"):
+                return f"{side[0]}_{'Right' if side[1] == 'Left' else 'Left'}"
+            return n
+
+        index = [self.joint_names.index(partner(n)) for n in self.joint_names]
+        sign = [-1.0 if n.rsplit("_", 1)[0] in self.mirror_negated or n in self.mirror_negated else 1.0
+                for n in self.joint_names]
+        return index, sign
 
     def joint_ids(self, names: tuple[str, ...]) -> list[int]:
         """Canonical indices of ``names``."""

@@ -61,3 +61,30 @@ def test_feedforward_joint_groups_need_one_signed_driven_joint_per_foot():
                 (("hipRoll_Left", 1.0), ("hipRoll_Right", 0.5))):
         with pytest.raises(ValueError, match="lateral_joints"):
             dataclasses.replace(ADAM_LITE, lateral_joints=bad)
+
+
+def test_mirror_map_is_the_robots_left_right_symmetry():
+    """Joint angles mirrored by RobotConfig.mirror_joints put every link where the mirror image (y -> -y) of the
+    original pose has it, position and orientation, for random poses: the map is the robot's own symmetry."""
+    import torch
+
+    from cra_warp.kinematics import Kinematics
+
+    kin = Kinematics(ADAM_LITE)
+    index, sign = ADAM_LITE.mirror_joints()
+    links = kin.chain.get_frame_names()
+    other = [links.index(n.replace("Left", "#").replace("Right", "Left").replace("#", "Right")) for n in links]
+    g = torch.Generator().manual_seed(0)
+    q = 0.6 * (2 * torch.rand(16, ADAM_LITE.num_joints, generator=g) - 1)
+    q_mirror = q[:, index] * torch.tensor(sign)
+    base, quat = torch.zeros(16, 3), torch.tensor([[0.0, 0.0, 0.0, 1.0]]).expand(16, 4)
+    pos, rot = kin.link_frames(base, quat, q, links)
+    pos_m, rot_m = kin.link_frames(base, quat, q_mirror, links)
+    M = torch.diag(torch.tensor([1.0, -1.0, 1.0]))
+    assert torch.allclose(pos_m[:, other], pos @ M, atol=2e-3)
+    assert torch.allclose(rot_m[:, other], M @ rot @ M, atol=1e-3)
+    # and a wrong sign is caught: ankle roll kept instead of negated
+    bad = list(sign)
+    bad[ADAM_LITE.joint_names.index("ankleRoll_Left")] = 1.0
+    _, rot_bad = kin.link_frames(base, quat, q[:, index] * torch.tensor(bad), links)
+    assert not torch.allclose(rot_bad[:, other], M @ rot @ M, atol=1e-3)

@@ -82,6 +82,8 @@ ADAM_LITE = RobotConfig(
     # left and turns its toes left (tests/test_env.py checks it through forward kinematics)
     lateral_joints=(("hipRoll_Left", 1.0), ("hipRoll_Right", 1.0)),
     turn_joints=(("hipYaw_Left", 1.0), ("hipYaw_Right", 1.0)),
+    # every roll and yaw axis points the same way on both sides (x forward, z up), so mirrored they change sign
+    mirror_negated=("hipRoll", "hipYaw", "ankleRoll", "waistRoll", "waistYaw", "shoulderRoll", "shoulderYaw"),
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
     # 0.01 kg m^2 or more through their gears. It also keeps the explicit PD stable at 5 ms on the light foot:
     # ankle pitch kd dt / I = 3.5 x 0.005 / (0.0043 + 0.01) = 1.2 with it, 4.1 without (explicit damping diverges
