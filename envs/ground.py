@@ -10,6 +10,7 @@ same HeightSampler.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -27,7 +28,8 @@ GROUND_KINDS = ("flat", "rough", "eval")
 
 class Ground:
     def __init__(self, kind: str, num_envs: int, device: torch.device, seed: int = 0,
-                 course: EvalCourseConfig | None = None, curriculum_rule: str = "path"):
+                 course: EvalCourseConfig | None = None, curriculum_rule: str = "path",
+                 rough: TerrainConfig | None = None):
         if kind not in GROUND_KINDS:
             raise ValueError(f"LocoConfig.terrain must be one of {GROUND_KINDS}, got {kind!r}")
         self.kind = kind
@@ -42,7 +44,9 @@ class Ground:
             self.boxes = terrain_boxes(self.course.terrain)
             field = self.course.terrain.field
         elif kind == "rough":
-            terrain = generate_terrain(TerrainConfig(seed=seed))
+            # the run's seed draws the tiles, whatever rough.seed says
+            terrain = generate_terrain(dataclasses.replace(rough or TerrainConfig(), seed=seed))
+            self.column_types = terrain.column_types
             self.boxes = terrain_boxes(terrain)
             self.curriculum = TerrainCurriculum(terrain, num_envs, device, seed=seed, rule=curriculum_rule)
             field = terrain.field
@@ -86,3 +90,16 @@ class Ground:
 
     def mean_level(self) -> float:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0
+
+    def mean_level_by_type(self) -> dict[str, float]:
+        """Mean level of the robots on each terrain type's columns (pits are the ascents: "stairs_down" and
+        "slope_down" tiles are climbed out of), for the logs."""
+        if self.curriculum is None:
+            return {}
+        cur, out = self.curriculum, {}
+        for name in dict.fromkeys(self.column_types):
+            cols = torch.tensor([c for c, t in enumerate(self.column_types) if t == name], device=cur.levels.device)
+            on = torch.isin(cur.cols, cols)
+            if on.any():
+                out[name] = float(cur.levels[on].float().mean())
+        return out

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from cra_warp.gait import GaitClockConfig
+from cra_warp.terrain import TerrainConfig
 from cra_warp.terrain_course import EvalCourseConfig
 from cra_warp.terrain_curriculum import RULES as CURRICULUM_RULES
 from cra_warp.sim import WorldConfig
@@ -199,6 +200,7 @@ class LocoConfig:
     terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
     course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
     terrain_curriculum: str = "path"                      # terrain "rough": its promotion rule, "path" or "reach"
+    rough: TerrainConfig = field(default_factory=TerrainConfig)  # terrain "rough": its tiles (seed: the run's)
     clip_joint_actions: float = 10.0
     # 0: q* = q_ref + robot.action_scale a on every joint (the vendor's 0.5). > 0: a per-joint scale of
     # action_scale_effort x effort_limit / kp, so a unit action asks every joint for the same share of its torque

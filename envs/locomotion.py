@@ -44,7 +44,7 @@ class LocoEnv(VecEnv):
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
 
         self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course,
-                             curriculum_rule=cfg.terrain_curriculum)
+                             curriculum_rule=cfg.terrain_curriculum, rough=cfg.rough)
         self.world = make_world(robot, cfg.world, self.ground.boxes)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
@@ -468,6 +468,8 @@ class LocoEnv(VecEnv):
         log = {f"/reward/{k}": (v[ids] / secs).mean() for k, v in self.episode_sums.items()}
         log["/episode_length_s"] = secs.mean()
         log["/terrain_level"] = self.ground.mean_level()
+        for name, level in self.ground.mean_level_by_type().items():
+            log[f"/terrain_level/{name}"] = level
         log["/difficulty"] = self.difficulty.level.clone()
         return log
 
