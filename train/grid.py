@@ -29,6 +29,7 @@ import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 from envs.recipes import DEFAULT_RECIPE, RECIPES
 from train.cli import VARIANTS, UsageError, Variant, parse_args
@@ -46,6 +47,7 @@ SCALES = {
 }
 
 
+RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices --help lists
 FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_velocity")
 
 
@@ -53,7 +55,7 @@ FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_ve
 class GridArgs:
     scale: str = "cpu"                                  # cpu | gpu (see SCALES)
     methods: tuple[Variant, ...] = tuple(VARIANTS)      # registered variants (cra-train --variant)
-    recipe: str = DEFAULT_RECIPE                        # cra-train --recipe of every run (envs/recipes.py)
+    recipe: RecipeName = DEFAULT_RECIPE                 # cra-train --recipe of every run (envs/recipes.py)
     seeds: tuple[int, ...] = (1, 2, 3)
     out: Path = Path("grid")
     iterations: int | None = None                       # the scale's unless given
