@@ -23,7 +23,7 @@ STEPS = 8
 
 
 def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
-                max_samples=2048, contrast=None, privileged_slices=None, critic_warmup=0, **env_kw):
+                max_samples=2048, contrast=None, privileged_slices=None, critic_warmup=0, batched_values=True, **env_kw):
     torch.manual_seed(seed)
     env = env or DummyEnv(num_envs, seed=seed, **env_kw)
     slices = env.privileged_slices if privileged_slices is None else privileged_slices
@@ -31,7 +31,9 @@ def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=Non
                         contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches),
                         critic_warmup=critic_warmup)
-    return OnPolicyRunner(env, runner_cfg(cfg), log_dir=None, device="cpu"), env
+    train_cfg = runner_cfg(cfg)
+    train_cfg["algorithm"]["batched_values"] = batched_values  # False: rsl-rl's per-step critic
+    return OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu"), env
 
 
 def fake_metadata(num_joints=23, obs_dim=84, clock=True):
@@ -72,7 +74,7 @@ def test_model_shapes(num_obs, num_actions):
 
 def test_batched_features_match_rollout():
     """m_a, u_t, s_t of the padded mini-batch forward are the rollout's, row for row ([T, B] = step x env)."""
-    runner, env = make_runner(num_envs=6, mini_batches=1, done_prob=0.25)
+    runner, env = make_runner(num_envs=6, mini_batches=1, done_prob=0.25, batched_values=False)
     alg = runner.alg
     rec = {"m": [], "u": [], "s": []}
     act = alg.act

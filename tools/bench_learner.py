@@ -125,6 +125,212 @@ def end_to_end(num_envs: int, iterations: int, processes: int, sim: str = "newto
             "env_steps_per_s": mean(1), "collect_s": mean(2), "update_s": mean(3)}
 
 
+def cpu_info() -> dict:
+    """lscpu's model name and the flags that decide the update's precision (every figure records them)."""
+    import platform
+
+    model, flags = platform.processor(), []
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name") and model in ("", "x86_64"):
+                model = line.split(":", 1)[1].strip()
+            elif line.startswith("flags"):
+                flags = line.split(":", 1)[1].split()
+                break
+    except OSError:
+        pass
+    keep = ("avx2", "avx512f", "avx512_bf16", "amx_bf16", "amx_tile", "fma")
+    return {"model": model, "flags": [f for f in keep if f in flags], "cores": os.cpu_count()}
+
+
+# (part name, object attribute path, method) timed by the profile; "actor"/"critic" forwards are split into
+# collection (inference mode) and update by where they run. Time inside env.step minus physics is the task.
+PARTS = ("physics", "task", "actor_inference", "critic_inference", "returns", "copies", "update_batches",
+         "update_actor_forward", "update_critic_forward", "contrast_heads", "update_backward", "update_optimizer",
+         "normalizers")
+
+
+def _profile_worker(spec: dict) -> dict:
+    """cra-train's learner on the real task (MuJoCo backend, one thread), every part of an iteration timed by
+    wrapping the method that does it; the first iteration is a warm-up."""
+    import torch
+    import rsl_rl.storage.rollout_storage as rs
+    from rsl_rl.runners import OnPolicyRunner
+
+    from cra_warp.host_memory import keep_freed_memory
+    from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
+    from cra_warp.sim import WorldConfig
+    from envs.loco_config import DifficultyConfig, LocoConfig
+    from envs.locomotion import LocoEnv
+
+    keep_freed_memory()
+    clock = time.process_time  # CPU seconds: core 1 is shared, wall time would count the neighbours' turns
+    torch.set_num_threads(spec["threads"])
+    torch.manual_seed(spec["seed"])
+    env = LocoEnv(LocoConfig(num_envs=spec["num_envs"], terrain=spec["terrain"], seed=spec["seed"],
+                             world=WorldConfig(backend="mujoco", threads=spec["threads"]),
+                             difficulty=DifficultyConfig(commands=True, randomization=True)))
+    learner = LearnerConfig()
+    learner.ppo.num_learning_epochs, learner.ppo.num_mini_batches = 2, 4
+    learner.ppo.use_mixed_precision = spec["bf16"] and bf16_supported("cpu")
+    learner.privileged_slices = {k: (env.priv_layout[name].start, env.priv_layout[name].stop)
+                                 for k, name in (("velocity", "base_lin_vel"), ("observation", "actor"))}
+    for k, v in spec.get("learner", {}).items():  # dotted overrides of the learner config
+        *path, last = k.split(".")
+        target = learner
+        for name in path:
+            target = getattr(target, name)
+        setattr(target, last, v)
+    runner = OnPolicyRunner(env, runner_cfg(learner), log_dir=None, device="cpu")
+    alg = runner.alg
+    acc = {k: 0.0 for k in PARTS}
+    stats = {"trajectories": 0, "batches": 0}
+
+    def timed(part, fn, pick=None):
+        def wrapper(*args, **kwargs):
+            t = clock()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                name = pick() if pick else part
+                acc[name] += clock() - t
+        return wrapper
+
+    in_update = lambda: torch.is_grad_enabled() and not torch.is_inference_mode_enabled()  # noqa: E731
+    env.world.step = timed("physics", env.world.step)
+    env_step = env.step
+
+    def task_step(actions):
+        p0, t = acc["physics"], clock()
+        out = env_step(actions)
+        acc["task"] += clock() - t - (acc["physics"] - p0)
+        return out
+
+    env.step = task_step
+    for model, name in ((alg.actor, "actor"), (alg.critic, "critic")):
+        model.forward = timed(None, model.forward,
+                              lambda n=name: f"update_{n}_forward" if in_update() else f"{n}_inference")
+    for obj, attr, part in ((alg, "compute_returns", "returns"), (alg.storage, "add_transition", "copies"),
+                            (alg, "contrastive_loss", "contrast_heads"), (alg.optimizer, "step", "update_optimizer"),
+                            (alg.actor, "update_normalization", "normalizers"),
+                            (alg.critic, "update_normalization", "normalizers")):
+        if hasattr(obj, attr):
+            setattr(obj, attr, timed(part, getattr(obj, attr)))
+    backward, clip = torch.Tensor.backward, torch.nn.utils.clip_grad_norm_
+    torch.Tensor.backward = timed("update_backward", backward)
+    torch.nn.utils.clip_grad_norm_ = timed("update_optimizer", clip)
+    split = rs.split_and_pad_trajectories
+
+    def counting_split(tensor, dones):
+        out = split(tensor, dones)
+        stats["trajectories"] += out[1].shape[1]
+        stats["batches"] += 1
+        return out
+
+    rs.split_and_pad_trajectories = timed("update_batches", counting_split)
+    for gen in ("recurrent_mini_batch_generator", "mini_batch_generator", "whole_env_mini_batches"):
+        if hasattr(alg.storage, gen):
+            orig = getattr(alg.storage, gen)
+
+            def timed_gen(*a, _orig=orig, **kw):  # time spent building each batch, not the loop body
+                it = _orig(*a, **kw)
+                while True:
+                    t = clock()
+                    try:
+                        b = next(it)
+                    except StopIteration:
+                        return
+                    finally:
+                        acc["update_batches"] += clock() - t
+                    yield b
+            setattr(alg.storage, gen, timed_gen)
+
+    log = runner.logger.log
+    iters: list[dict] = []
+    marks = {"start": clock()}
+    compute_returns = alg.compute_returns
+
+    def marked_returns(*a, **kw):  # the runner calls it right after the rollout: the end of collection
+        marks["collected"] = clock()
+        return compute_returns(*a, **kw)
+
+    alg.compute_returns = marked_returns
+
+    def record(**kw):
+        now = clock()
+        iters.append({"collect_s": marks["collected"] - marks["start"], "update_s": now - marks["collected"],
+                      "collect_wall_s": kw["collect_time"], "update_wall_s": kw["learn_time"], **dict(acc)})
+        for k in acc:
+            acc[k] = 0.0
+        marks["start"] = clock()
+    runner.logger.log = record
+    try:
+        runner.learn(spec["iterations"] + 1)
+    finally:
+        torch.Tensor.backward, torch.nn.utils.clip_grad_norm_ = backward, clip
+        rs.split_and_pad_trajectories = split
+        runner.logger.log = log
+    iters = iters[1:]
+    import statistics
+
+    med = {k: statistics.median(r[k] for r in iters) for k in iters[0]}
+    collect_parts = ("physics", "task", "actor_inference", "critic_inference", "copies")
+    med["collect_other"] = med["collect_s"] - sum(med[k] for k in collect_parts)
+    update_parts = ("update_batches", "update_actor_forward", "update_critic_forward", "contrast_heads",
+                    "update_backward", "update_optimizer", "normalizers")
+    med["update_other"] = med["update_s"] - med["returns"] - sum(med[k] for k in update_parts)
+    steps = spec["num_envs"] * learner.num_steps_per_env
+    total = med["collect_s"] + med["update_s"]
+    rec = {"kind": "profile", "terrain": spec["terrain"], "num_envs": spec["num_envs"], "threads": spec["threads"],
+           "bf16": learner.ppo.use_mixed_precision, "iterations": len(iters), "seconds": med,
+           "share": {k: v / total for k, v in med.items() if not k.endswith("_s")},
+           "env_steps_per_wall_s": steps / (med["collect_wall_s"] + med["update_wall_s"]),
+           "env_steps_per_s": steps / total, "physics_env_steps_per_s": steps / med["physics"],
+           "task_env_steps_per_s": steps / (med["physics"] + med["task"])}
+    if stats["batches"]:
+        rec["padded_trajectories_per_env"] = stats["trajectories"] / stats["batches"] / spec["num_envs"]
+    if spec.get("torch_profile"):
+        from torch.profiler import ProfilerActivity, profile
+
+        with profile(activities=[ProfilerActivity.CPU]) as prof:
+            runner.learn(1)
+        ops = sorted(prof.key_averages(), key=lambda e: -e.self_cpu_time_total)[:25]
+        rec["top_ops"] = [{"op": e.key, "self_s": e.self_cpu_time_total / 1e6, "calls": e.count} for e in ops]
+    return rec
+
+
+def profile(terrains, sizes, iterations: int, bf16: bool, torch_profile: bool, learner: dict | None = None) -> list:
+    out = []
+    for terrain in terrains:
+        for n in sizes:
+            spec = dict(terrain=terrain, num_envs=n, iterations=iterations, bf16=bf16, threads=1, seed=1,
+                        torch_profile=torch_profile, learner=learner or {})
+            proc = subprocess.run([sys.executable, "-m", "tools.bench_learner", "--worker", json.dumps(spec),
+                                   "--worker-kind", "profile"], capture_output=True, text=True)
+            if proc.returncode:
+                raise RuntimeError(f"profile worker {terrain} N={n} failed: {proc.stderr.strip().splitlines()[-3:]}")
+            rec = json.loads(proc.stdout.strip().splitlines()[-1])
+            out.append(rec)
+            print_profile(rec)
+    return out
+
+
+def print_profile(r: dict) -> None:
+    s, total = r["seconds"], r["seconds"]["collect_s"] + r["seconds"]["update_s"]
+    print(f"\nprofile {r['terrain']} N={r['num_envs']} ({'bf16' if r['bf16'] else 'fp32'} update, "
+          f"{r['threads']} thread, CPU time): {r['env_steps_per_s']:.0f} env-steps/s end to end "
+          f"({r['env_steps_per_wall_s']:.0f} by the wall clock), the task alone "
+          f"{r['task_env_steps_per_s']:.0f} (ratio {r['env_steps_per_s'] / r['task_env_steps_per_s']:.2f})"
+          + (f", {r['padded_trajectories_per_env']:.2f} padded trajectories per env"
+             if "padded_trajectories_per_env" in r else ""))
+    for k, v in s.items():
+        if not k.endswith("_s") and v > 0.0005:
+            print(f"  {k:22} {v:7.3f} s {100 * v / total:5.1f}%")
+    print(f"  {'collect / update':22} {s['collect_s']:.3f} / {s['update_s']:.3f} s")
+    for op in r.get("top_ops", [])[:12]:
+        print(f"    {op['op'][:48]:48} {op['self_s']:7.3f} s {op['calls']:7d} calls")
+
+
 def print_table(records: list[dict]) -> None:
     lev = [r for r in records if r["kind"] == "lever"]
     if lev:
@@ -150,10 +356,27 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-levers", action="store_true")
     p.add_argument("--no-end-to-end", action="store_true")
     p.add_argument("--json", type=Path, help="write the records to this file")
+    p.add_argument("--profile", action="store_true",
+                   help="profile cra-train's iteration on the real task (MuJoCo, one thread) instead: --terrain x "
+                        "--sizes, the time of every part (physics, task, inference, update parts)")
+    p.add_argument("--terrain", nargs="+", default=["flat", "rough"], choices=["flat", "rough"])
+    p.add_argument("--sizes", type=int, nargs="+", default=[256, 1024], help="--profile: N per run")
+    p.add_argument("--no-bf16", action="store_true", help="--profile: fp32 update even where bf16 is native")
+    p.add_argument("--torch-profile", action="store_true", help="--profile: add torch.profiler's top ops")
+    p.add_argument("--learner", default="{}", help="--profile: learner config overrides as JSON {dotted: value}")
     p.add_argument("--worker", help=argparse.SUPPRESS)
+    p.add_argument("--worker-kind", default="lever", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.worker:
-        print(json.dumps(_lever_worker(json.loads(a.worker))))
+        worker = _profile_worker if a.worker_kind == "profile" else _lever_worker
+        print(json.dumps(worker(json.loads(a.worker))))
+        return 0
+    if a.profile:
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        records = profile(a.terrain, a.sizes, a.iterations, not a.no_bf16, a.torch_profile, json.loads(a.learner))
+        if a.json:
+            write_json(a.json, {"cpu": cpu_info(), "profiles": records}, indent=1)
+            print(f"wrote {a.json}")
         return 0
     if a.num_envs < 2 or a.num_envs % 8:
         p.error(f"--num-envs must be a multiple of 8 (8 mini-batches, 2 processes), got {a.num_envs}")

@@ -12,17 +12,63 @@ the last forward pass:
 In a mini-batch rsl-rl feeds observations padded per trajectory ([T, B', ...], B' >= B trajectories, with masks);
 its RNN returns the output already unpadded back to [T, B, ...] (time x env). u_t and s_t are unpadded with the same
 masks, so row (t, b) of all three is the same env at the same step and padded steps never appear.
+
+CRAPPO's own path (ppo.py) runs both models over whole environments instead: ``sequence(obs [T, B], h0, starts)``
+steps the GRU through the fixed window with the state zeroed where an episode starts (:func:`gru_sequence`), which
+is what rsl-rl's split-and-pad gives (a trajectory after a done starts from the zero state it saved) without the
+padding, the split copies and the unpad gathers. The features above are then [T, B, ..] for every step.
 """
 
 from __future__ import annotations
 
 import torch
 import torch.nn as nn
+import torch.nn.functional as F
 from tensordict import TensorDict
 
 from rsl_rl.models import CNNModel, RNNModel
 from rsl_rl.modules import CNN, HiddenState
 from rsl_rl.utils import unpad_trajectories
+
+CNN_CHUNK = 1536  # height maps per CNN call in a sequence pass: the conv activations of a larger batch leave the
+#                   cache (6144 maps in one call took ~1.4x the time of four calls of 1536 here)
+
+
+def gru_sequence(gru: nn.GRU, x: torch.Tensor, h0: torch.Tensor, starts: torch.Tensor | None = None,
+                 states: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    """``gru`` over x [T, B, D] from h0 [L, B, H], every layer's state zeroed before step t where starts[t] [T, B].
+
+    The same recurrence as nn.GRU (gates r, z, n), written out so that the state can restart mid-sequence: the
+    input projections of all T steps are one matmul per layer, only h @ W_hh is per step. ``states`` [T, L, B, H]
+    (optional) receives the state each step starts from, after its restart (what rsl-rl's rollout storage saves).
+    Returns (output of the last layer [T, B, H], state after the last step [L, B, H], before any restart).
+    """
+    T, H = x.shape[0], gru.hidden_size
+    keep = None
+    if starts is not None:
+        restart = starts.any(dim=1).tolist()           # one host sync; most steps restart no env
+        keep = (~starts).unsqueeze(-1)                 # [T, B, 1]
+    finals = []
+    inp = x
+    for layer in range(gru.num_layers):
+        w_ih, w_hh = getattr(gru, f"weight_ih_l{layer}"), getattr(gru, f"weight_hh_l{layer}")
+        b_ih, b_hh = getattr(gru, f"bias_ih_l{layer}"), getattr(gru, f"bias_hh_l{layer}")
+        gi = F.linear(inp, w_ih, b_ih)                 # [T, B, 3H]
+        h = h0[layer]
+        outs = []
+        for t in range(T):
+            if keep is not None and restart[t]:
+                h = h * keep[t]
+            if states is not None:
+                states[t, layer].copy_(h)
+            gh = F.linear(h, w_hh, b_hh)               # [B, 3H]
+            r, z = torch.sigmoid(gi[t, :, :2 * H] + gh[:, :2 * H]).chunk(2, dim=-1)
+            n = torch.tanh(gi[t, :, 2 * H:] + r * gh[:, 2 * H:])
+            h = n + z * (h - n)                        # (1 - z) n + z h
+            outs.append(h)
+        inp = torch.stack(outs)
+        finals.append(h)
+    return inp, torch.stack(finals)
 
 
 class CRAActor(RNNModel):
@@ -44,6 +90,13 @@ class CRAActor(RNNModel):
                    hidden_state: HiddenState = None) -> torch.Tensor:
         self.latent = super().get_latent(obs, masks, hidden_state)
         return self.latent
+
+    def sequence(self, obs: TensorDict, h0: torch.Tensor, starts: torch.Tensor | None) -> None:
+        """Forward over whole environments, obs [T, B]: sets the action distribution and ``latent`` [T, B, 256]
+        (as ``forward(..., stochastic_output=True)`` does in a rollout step, minus the sample)."""
+        x = self.obs_normalizer(torch.cat([obs[g] for g in self.obs_groups], dim=-1))
+        self.latent, _ = gru_sequence(self.rnn.rnn, x, h0, starts)
+        self.distribution.update(self.mlp(self.latent))
 
 
 class CRACritic(RNNModel):
@@ -89,6 +142,17 @@ class CRACritic(RNNModel):
         u = self.cnn(hmap.flatten(0, -4)).unflatten(0, hmap.shape[:-3])  # [N, 32] | [T, B, 32]
         self.u_t, self.s_t = u, s.detach()
         return torch.cat([m_c, u], dim=-1)                        # z_t [.., 288]
+
+    def sequence(self, obs: TensorDict, h0: torch.Tensor, starts: torch.Tensor | None,
+                 states: torch.Tensor | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """Values over whole environments, obs [T, B]; sets ``u_t`` and ``s_t`` [T, B, ..]. Returns (values
+        [T, B, 1], the GRU state after the last step [L, B, H]); ``states``: see :func:`gru_sequence`."""
+        s = self.obs_normalizer(torch.cat([obs[g] for g in self.obs_groups], dim=-1))   # [T, B, 179]
+        m_c, h_last = gru_sequence(self.rnn.rnn, s, h0, starts, states)                 # [T, B, 256]
+        hmap = obs[self.obs_groups_2d[0]]                                               # [T, B, 1, 17, 11]
+        u = torch.cat([self.cnn(part) for part in hmap.flatten(0, 1).split(CNN_CHUNK)])
+        self.u_t, self.s_t = u.unflatten(0, hmap.shape[:2]), s.detach()
+        return self.mlp(torch.cat([m_c, self.u_t], dim=-1)), h_last
 
     def _get_latent_dim(self) -> int:
         return self.latent_dim + self.cnn_latent_dim

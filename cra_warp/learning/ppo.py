@@ -13,6 +13,17 @@ Differences from plain PPO: the two contrastive encoder heads are an extra optim
 by the same KL schedule); their gradients are not norm-clipped (rsl-rl clips actor and critic only; Adam is
 insensitive to the gradient scale), and they are saved/loaded as ``contrast_state_dict`` in the checkpoint. A
 baseline's estimator or decoder is part of its actor: optimised, clipped and saved with it.
+
+Where the time goes on a CPU (issue 34): with ``batched_values`` (the default) the critic does not run inside the
+rollout loop. ``act`` steps the actor only; ``compute_returns`` runs the critic once over the whole [T, N] rollout
+(one GRU pass with the state zeroed after each done, the CNN and the value head batched), saves its states where
+rsl-rl's storage keeps them, then applies rsl-rl's time-out bootstrap and GAE to those values: the same numbers
+(tests/test_learning_whole_envs.py).
+``whole_env_update`` (off by default) replaces rsl-rl's padded recurrent mini-batches by whole environments over
+the fixed window, the GRUs restarting at dones inside the sequence (models.gru_sequence); the same losses, KL
+schedule, clipping and step, tested equal to rsl-rl's update. Off because it measured slower on the CPU: the
+written-out GRU's backward took ~2x nn.GRU's, and rsl-rl's padding adds only ~7% trajectories in training
+(tools/results/bench_learner_profile_*.json).
 """
 
 from __future__ import annotations
@@ -61,6 +72,15 @@ class _AuxLossHook:
         return {k: v / max(self.calls, 1) for k, v in self.sums.items()}
 
 
+class _WholeEnvBatch:
+    """What our loss terms read of a whole-env mini-batch: observations [T, B] and episode ids [T, B] (no masks)."""
+
+    masks = None
+
+    def __init__(self, observations, episodes) -> None:
+        self.observations, self.episodes = observations, episodes
+
+
 class CRAPPO(PPO):
     """rsl-rl PPO + ``contrast_cfg.weight`` * InfoNCE(MLP_S(m_a), MLP_T([sg(u_t), s_t])) + ``representation_weight``
     * the actor's ``representation_loss(batch)`` where the actor has one (the baselines).
@@ -72,8 +92,21 @@ class CRAPPO(PPO):
 
     def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
                  representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
-                 critic_warmup: int = 0, **kwargs) -> None:
+                 critic_warmup: int = 0, batched_values: bool = True, whole_env_update: bool = False,
+                 **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
+        # batched values need our CRACritic with a GRU; the whole-env update also a GRU CRAActor
+        self.batched_values = (batched_values and isinstance(critic, CRACritic) and self.rnd is None
+                               and isinstance(critic.rnn.rnn, torch.nn.GRU))
+        self.whole_env_update = (whole_env_update and self.batched_values and isinstance(actor, CRAActor)
+                                 and isinstance(actor.rnn.rnn, torch.nn.GRU) and isinstance(critic.rnn.rnn, torch.nn.GRU))
+        if self.batched_values:
+            T, N = storage.num_transitions_per_env, storage.num_envs
+            rnn = critic.rnn.rnn
+            self._time_outs = torch.zeros(T, N, 1, device=self.device)
+            self._no_values = torch.zeros(N, 1, device=self.device)  # the rollout's placeholder, filled after it
+            # the critic's state before each step, as rsl-rl's storage keeps it (its padded update reads it)
+            storage.saved_hidden_state_c = [torch.zeros(T, rnn.num_layers, N, rnn.hidden_size, device=self.device)]
         if critic_warmup < 0:
             raise ValueError(f"critic_warmup must be >= 0 updates, got {critic_warmup}")
         self.critic_warmup_left = critic_warmup  # updates that still hold the actor (saved: a resume continues)
@@ -107,15 +140,18 @@ class CRAPPO(PPO):
             self.symmetry = _AuxLossHook(terms)
 
     def _contrast_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
-        loss, acc, k = self.contrastive_loss(batch.masks)
+        loss, acc, k = self.contrastive_loss(batch.masks, getattr(batch, "episodes", None))
         return loss, {"infonce": loss.item(), "infonce_acc": acc.item(), "infonce_chance": 1.0 / k}
 
-    def contrastive_loss(self, masks: torch.Tensor | None) -> tuple[torch.Tensor, torch.Tensor, int]:
-        """InfoNCE on the features of the last actor and critic forward; (loss, top-1 accuracy, samples K)."""
+    def contrastive_loss(self, masks: torch.Tensor | None, episodes: torch.Tensor | None = None
+                         ) -> tuple[torch.Tensor, torch.Tensor, int]:
+        """InfoNCE on the features of the last actor and critic forward; (loss, top-1 accuracy, samples K).
+        ``episodes`` [T, B] labels each step's episode (whole-env batches); else they come from rsl-rl's masks."""
         m_a, u, s = self._raw_actor.latent, self._raw_critic.u_t, self._raw_critic.s_t  # [T, B, ..] in update
         if self.target_columns is not None:
             s = s.index_select(-1, self.target_columns)
-        episodes = episode_ids(masks) if masks is not None else None                    # [T, B]
+        if episodes is None and masks is not None:
+            episodes = episode_ids(masks)                                               # [T, B]
         m_a, u, s = contrast_pairs(self.contrast_cfg.variant, m_a, u, s, episodes)     # [K, ..]
         m_a, u, s = subsample(self.contrast_cfg.max_samples, m_a, u, s)
         if m_a.shape[0] < 2:
@@ -123,6 +159,47 @@ class CRAPPO(PPO):
         i_s, i_t = self.heads(m_a, u, s)                                                # [K, 256] each
         loss, acc = info_nce(i_s, i_t, self.contrast_cfg.tau, self.contrast_cfg.normalize)
         return loss, acc, m_a.shape[0]
+
+    # ---------------------------------------------------------------- collection: the actor only, values after
+    def act(self, obs):
+        if not self.batched_values:
+            return super().act(obs)
+        t = self.transition
+        t.hidden_states = (self.actor.get_hidden_state(), None)  # the critic's are saved by compute_returns
+        t.actions = self.actor(obs, stochastic_output=True).detach()
+        t.values = self._no_values
+        t.actions_log_prob = self.actor.get_output_log_prob(t.actions).detach()
+        t.distribution_params = tuple(p.detach() for p in self.actor.output_distribution_params)
+        t.observations = obs
+        return t.actions
+
+    def process_env_step(self, obs, rewards, dones, extras) -> None:
+        if not self.batched_values:
+            return super().process_env_step(obs, rewards, dones, extras)
+        t = self.transition
+        t.rewards, t.dones = rewards.clone(), dones  # the time-out bootstrap is added once the values exist
+        time_outs = extras.get("time_outs")
+        self._time_outs[self.storage.step] = 0.0 if time_outs is None else time_outs.to(self.device).unsqueeze(-1)
+        self.storage.add_transition(t)
+        t.clear()
+        self.actor.reset(dones)  # the critic keeps the state it had at the rollout's start until compute_returns
+
+    def compute_returns(self, obs) -> None:
+        if not self.batched_values:
+            return super().compute_returns(obs)
+        st, critic = self.storage, self._raw_critic
+        rnn = critic.rnn.rnn
+        h0 = critic.get_hidden_state()
+        if h0 is None:
+            h0 = torch.zeros(rnn.num_layers, st.num_envs, rnn.hidden_size, device=self.device)
+        starts = torch.zeros_like(st.dones[..., 0], dtype=torch.bool)
+        starts[1:] = st.dones[:-1, :, 0].bool()
+        values, h_last = critic.sequence(st.observations, h0, starts, st.saved_hidden_state_c[0])
+        st.values.copy_(values)
+        st.rewards += self.gamma * values * self._time_outs  # rsl-rl's bootstrap on time-outs, V of that step
+        # the state the next rollout starts from: after the last step, zeroed where it ended an episode
+        critic.reset(hidden_state=h_last * (1.0 - st.dones[-1, :, 0].float()).unsqueeze(-1))
+        super().compute_returns(obs)  # last values from that state (restored after), then GAE
 
     def update(self) -> dict[str, float]:
         if self.critic_warmup_left <= 0:
@@ -148,6 +225,8 @@ class CRAPPO(PPO):
         return loss_dict
 
     def _update(self) -> dict[str, float]:
+        if self.whole_env_update:
+            return self._update_whole_envs()
         hook = self.symmetry
         if not isinstance(hook, _AuxLossHook):
             return super().update()
@@ -161,6 +240,93 @@ class CRAPPO(PPO):
                                "(see cra_warp/learning/ppo.py)")
         loss_dict.update(hook.means())
         return loss_dict
+
+    def _update_whole_envs(self) -> dict[str, float]:
+        """rsl-rl 5.5.1's PPO.update over whole-environment mini-batches (env slices in rsl-rl's order, the same
+        every epoch): the same losses, KL-adaptive rate, clipping and step, with our auxiliary terms called
+        directly. Returns rsl-rl's keys and the terms' means."""
+        st = self.storage
+        T, N = st.num_transitions_per_env, st.num_envs
+        size = N // self.num_mini_batches
+        starts = torch.zeros(T, N, dtype=torch.bool, device=self.device)
+        starts[1:] = st.dones[:-1, :, 0].bool()
+        episodes = starts.cumsum(0)                                 # [T, N]: episode index within each env
+        h0_actor, h0_critic = st.saved_hidden_state_a[0][0], st.saved_hidden_state_c[0][0]  # [L, N, H] at t = 0
+        terms = self.symmetry.terms if isinstance(self.symmetry, _AuxLossHook) else []
+        sums: dict[str, float] = {"value": 0.0, "surrogate": 0.0, "entropy": 0.0}
+        device_type = torch.device(self.device).type
+        for _ in range(self.num_learning_epochs):
+            for i in range(self.num_mini_batches):
+                sl = slice(i * size, (i + 1) * size)
+                obs, advantages = st.observations[:, sl], st.advantages[:, sl]
+                if self.normalize_advantage_per_mini_batch:
+                    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+                with torch.autocast(device_type=device_type, enabled=self.use_mixed_precision, dtype=torch.bfloat16):
+                    # clone: the saved states are inference tensors, which autograd may not keep
+                    self._raw_actor.sequence(obs, h0_actor[:, sl].clone(), starts[:, sl])
+                    log_prob = self.actor.get_output_log_prob(st.actions[:, sl])              # [T, B]
+                    values, _ = self._raw_critic.sequence(obs, h0_critic[:, sl].clone(), starts[:, sl])
+                    params = self.actor.output_distribution_params
+                    entropy = self.actor.output_entropy
+                    if self.desired_kl is not None and self.schedule == "adaptive":
+                        old = tuple(p[:, sl] for p in st.distribution_params)
+                        self._adapt_learning_rate(old, params)
+                    old_log_prob = st.actions_log_prob[:, sl, 0]
+                    ratio = torch.exp(log_prob - old_log_prob)
+                    adv = advantages[..., 0]
+                    surrogate = -adv * ratio
+                    surrogate_clipped = -adv * torch.clamp(ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)
+                    surrogate_loss = torch.max(surrogate, surrogate_clipped).mean()
+                    old_values, returns = st.values[:, sl], st.returns[:, sl]
+                    if self.use_clipped_value_loss:
+                        value_clipped = old_values + (values - old_values).clamp(-self.clip_param, self.clip_param)
+                        value_loss = torch.max((values - returns).pow(2), (value_clipped - returns).pow(2)).mean()
+                    else:
+                        value_loss = (returns - values).pow(2).mean()
+                    loss = surrogate_loss + self.value_loss_coef * value_loss - self.entropy_coef * entropy.mean()
+                    batch = _WholeEnvBatch(obs, episodes[:, sl])
+                    for weight, term in terms:
+                        term_loss, logs = term(batch)
+                        loss = loss + weight * term_loss
+                        for k, v in logs.items():
+                            sums[k] = sums.get(k, 0.0) + v
+                self.optimizer.zero_grad()
+                loss.backward()
+                if self.is_multi_gpu:
+                    self.reduce_parameters()
+                torch.nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
+                torch.nn.utils.clip_grad_norm_(self.critic.parameters(), self.max_grad_norm)
+                self.optimizer.step()
+                sums["value"] += value_loss.item()
+                sums["surrogate"] += surrogate_loss.item()
+                sums["entropy"] += entropy.mean().item()
+        flat = st.observations.flatten(0, 1)
+        self.actor.update_normalization(flat)
+        self.critic.update_normalization(flat)
+        st.clear()
+        n = self.num_learning_epochs * self.num_mini_batches
+        return {k: v / n for k, v in sums.items()}
+
+    def _adapt_learning_rate(self, old_params, new_params) -> None:
+        """rsl-rl's adaptive schedule, step for step: KL(old || new) of the mini-batch in fp32 moves the rate by
+        1.5x when it leaves [desired / 2, 2 desired]; rank 0 decides, the others follow."""
+        with torch.inference_mode():
+            new_params = tuple(p.float() for p in new_params)
+            kl_mean = torch.mean(self.actor.get_kl_divergence(old_params, new_params))
+            if self.is_multi_gpu:
+                torch.distributed.all_reduce(kl_mean, op=torch.distributed.ReduceOp.SUM)
+                kl_mean /= self.gpu_world_size
+            if self.gpu_global_rank == 0:
+                if kl_mean > self.desired_kl * 2.0:
+                    self.learning_rate = max(1e-5, self.learning_rate / 1.5)
+                elif self.desired_kl / 2.0 > kl_mean > 0.0:
+                    self.learning_rate = min(1e-2, self.learning_rate * 1.5)
+            if self.is_multi_gpu:
+                lr_tensor = torch.tensor(self.learning_rate, device=self.device)
+                torch.distributed.broadcast(lr_tensor, src=0)
+                self.learning_rate = lr_tensor.item()
+            for group in self.optimizer.param_groups:
+                group["lr"] = self.learning_rate
 
     # ---------------------------------------------------------------- the heads follow the models everywhere
     def train_mode(self) -> None:
