@@ -17,7 +17,8 @@ learner paths under "learner.") that cra-train applies on top of the dataclass d
 A method without a clock (clock_free: no clock inputs, no gait actions) cannot use a recipe's clock settings
 (gait.*: the feedforward, alpha, beta_scale): ``resolve`` leaves them out and says so, and the env skips the
 clock's reward terms (contact_pattern, swing_reference) for it. A fair pair for it is ours with the same keys left
-out (under walk: ours with the four gait.*_feedforward at 0, alpha 0.5 and beta_scale 1).
+out (under walk: ours with the four gait.*_feedforward at 0, alpha 0.5 and beta_scale 1); cra-grid trains it beside
+clock_free as ours_as_clock_free.
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ DEFAULT_RECIPE = "walk"
 
 # Keys a method without a clock cannot use, and why (the grid prints it beside the method).
 CLOCK_KEYS = "gait."
-NO_CLOCK_REASON = "no clock (no clock inputs or gait actions), so no clock settings or feedforward"
+NO_CLOCK_REASON = "no clock inputs or gait actions, so no clock settings or feedforward"
 
 
 def resolve(name: str, task: str, uses_clock: bool = True) -> tuple[dict[str, object], dict[str, str]]:

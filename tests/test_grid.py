@@ -36,6 +36,36 @@ def test_the_grid_says_which_recipe_each_method_ran(tmp_path):
     assert said["ours"].split()[-1] == "walk"
     assert "walk without" in said["clock_free"] and "gait.swing_feedforward" in said["clock_free"]
     assert "no clock" in said["clock_free"]
+    assert "fair pair of clock_free" in said["ours_as_clock_free"]
+
+
+def test_a_method_that_cannot_use_the_recipe_gets_its_fair_pair(tmp_path):
+    """clock_free under walk trains without the clock's settings; the grid also trains ours without them (its
+    fair pair), labelled apart in the evaluation records; under paper the pair would be ours itself, so none."""
+    import json
+
+    a = grid.GridArgs(methods=("ours", "clock_free"), seeds=(1,), out=tmp_path, recipe="walk")
+    jobs = {j["method"]: j for j in grid.plan(a)}
+    assert set(jobs) == {"ours", "clock_free", "ours_as_clock_free"}
+    pair = jobs["ours_as_clock_free"]["cmd"]
+    assert pair[pair.index("--variant") + 1] == "ours" and pair[pair.index("--recipe") + 1] == "walk"
+    over = pair[pair.index("--override") + 1:]
+    assert "gait.swing_feedforward=0.0" in over and "gait.alpha=0.5" in over and "gait.beta_scale=1.0" in over
+    assert not any(k.startswith("rewards.") for k in over)   # the rest of the recipe is the same for both
+    assert "--override" not in jobs["ours"]["cmd"]
+    # the pair's overrides reach the config cra-train builds: ours with the clock's recipe keys at the defaults
+    from train import train as train_cli
+
+    cfg, _, _ = train_cli.env_config(train_cli.TrainArgs(task="rough", variant="ours", recipe="walk",
+                                                         override=tuple(over)))
+    assert cfg.gait.stride_feedforward == 0.0 and cfg.rewards.weights["lin_vel_tracking"] == 9.0
+    assert [j["method"] for j in grid.plan(grid.GridArgs(methods=("ours", "clock_free"), seeds=(1,), out=tmp_path,
+                                                         recipe="paper"))] == ["ours", "clock_free"]
+    assert "ours_as_clock_free" not in grid.labels(grid.GridArgs(methods=("clock_free",), fair_pairs=False))
+    path = tmp_path / "e.json"
+    path.write_text(json.dumps([{"method": "ours", "success_rate": 0.5}]))
+    grid.relabel(path, "ours_as_clock_free")
+    assert json.loads(path.read_text()) == [{"method": "ours_as_clock_free", "success_rate": 0.5}]
 
 
 def test_grid_rejects_bad_values(capsys, tmp_path):

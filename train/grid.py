@@ -13,7 +13,9 @@ paper's protocol, draw its figures and the table.
 
 Every method trains with one recipe (--recipe, envs/recipes.py; walk unless told). A method that cannot use part
 of it runs without that part, and the plan and the table say so: clock_free has no clock, so it trains without the
-recipe's gait.* settings (under walk: no clock feedforward); its fair pair is ours with the same keys left out.
+recipe's gait.* settings (under walk: no clock feedforward). Its fair pair, ours_as_clock_free, is ours with the
+same keys left out; the grid trains and evaluates it beside the methods (--no-fair-pairs: not) wherever those keys
+differ from the defaults (under walk; not under paper, where ours is that pair already).
 
 Resumable: a run whose final checkpoint exists is not trained again, an unfinished one resumes from its newest
 checkpoint, and a run's evaluation is redone only when its final checkpoint is newer than its JSON. A run is
@@ -22,6 +24,7 @@ evaluated as soon as its training ends, in the next free slot, while the other t
 
 from __future__ import annotations
 
+import json
 import os
 import shlex
 import subprocess
@@ -63,6 +66,9 @@ class GridArgs:
     parallel: int | None = None                         # training processes at a time (cpu: one core each)
     # cra-eval arguments instead of the scale's, as one string: --eval-args="--speeds 1 --robots-per-level 2"
     eval_args: str = ""
+    # for a method that cannot use part of the recipe (clock_free: its gait.* keys), also train ours without that
+    # part ("ours_as_clock_free"), so the method is compared with ours on the same terms
+    fair_pairs: bool = True
     dry_run: bool = False                               # print what would run, run nothing
 
 
@@ -74,36 +80,85 @@ def _newest(run_dir: Path) -> tuple[int, Path] | None:
     return (int(path.stem.split("_")[1]), path) if path else None
 
 
-def recipe_of(a: GridArgs, method: str) -> str:
-    """The recipe ``method`` runs, in words: the name, and what of it the method cannot use."""
+PAIR = "ours_as_"   # the label of ours trained without what a method cannot use: ours_as_clock_free
+
+
+def unusable(a: GridArgs, method: str) -> dict[str, object]:
+    """{recipe key: the default it falls back to} for the keys of the grid's recipe that ``method`` cannot use and
+    that differ from the defaults (what a fair pair of ours leaves out too); {} when it can use them all."""
+    from cra_warp.config_io import to_data
+    from envs.loco_config import LocoConfig
+    from envs.recipes import resolve
+
+    uses_clock = LocoConfig(variant=VARIANTS[method][0]).uses_clock
+    _, dropped = resolve(a.recipe, "rough", uses_clock=uses_clock)
+    full, _ = resolve(a.recipe, "rough")
+    base = to_data(LocoConfig())
+    defaults = {}
+    for key in dropped:
+        node = base
+        for part in key.split("."):
+            node = node[part]
+        if node != full[key]:
+            defaults[key] = node
+    return defaults
+
+
+def labels(a: GridArgs) -> dict[str, str]:
+    """Every run label of the grid -> the variant it trains: the methods, and each method's fair pair."""
+    out = {m: m for m in a.methods}
+    if a.fair_pairs:
+        out |= {PAIR + m: "ours" for m in a.methods if unusable(a, m)}
+    return out
+
+
+def recipe_of(a: GridArgs, label: str) -> str:
+    """The recipe a run label trains with, in words: the name, and what of it the method cannot use (or, for a
+    fair pair, leaves out)."""
     from envs.loco_config import LocoConfig
     from envs.recipes import describe
 
-    return describe(a.recipe, uses_clock=LocoConfig(variant=VARIANTS[method][0]).uses_clock)
+    if label.startswith(PAIR):
+        method = label[len(PAIR):]
+        return f"{a.recipe} without {', '.join(unusable(a, method))} (the fair pair of {method})"
+    return describe(a.recipe, uses_clock=LocoConfig(variant=VARIANTS[label][0]).uses_clock)
 
 
 def plan(a: GridArgs) -> list[dict]:
-    """One entry per (method, seed): its run directory, the command left to run (None when done), final ckpt."""
+    """One entry per (run label, seed): its run directory, the command left to run (None when done), final ckpt."""
     s = SCALES[a.scale]
     total = a.iterations or s["iterations"]
     jobs = []
-    for m in a.methods:
+    for m, variant in labels(a).items():
+        left_out = unusable(a, m[len(PAIR):]) if m.startswith(PAIR) else {}
         for seed in a.seeds:
             run_dir = a.out / "train" / f"{m}-s{seed}"
             newest = _newest(run_dir)
             done_it = newest[0] + 1 if newest else 0
             cmd = None
             if done_it < total:
-                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", m, "--recipe", a.recipe,
-                       "--seed", str(seed),
+                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", variant,
+                       "--recipe", a.recipe, "--seed", str(seed),
                        "--num-envs", str(a.num_envs or s["num_envs"]), "--sim", s["sim"], "--device", s["device"],
                        "--max-iterations", str(total - done_it), "--log-dir", str(run_dir), "--quiet",
                        "--save-interval", "20", "--no-export"]
+                if left_out:
+                    cmd += ["--override", *(f"{k}={json.dumps(v)}" for k, v in left_out.items())]
                 if newest:
                     cmd += ["--resume", str(run_dir)]
             jobs.append({"method": m, "seed": seed, "run_dir": run_dir, "cmd": cmd, "recipe": recipe_of(a, m),
                          "final": newest[1] if newest and cmd is None else None})
     return jobs
+
+
+def relabel(path: Path, label: str) -> None:
+    """A fair pair's evaluation records name the checkpoint's variant (ours): name them by the run's label instead,
+    so the table and the figures keep it apart from ours."""
+    from cra_warp.atomic_json import write_json
+
+    records = json.loads(path.read_text())
+    if any(r.get("method") != label for r in records):
+        write_json(path, [{**r, "method": label} for r in records])
 
 
 def _eval_json(a: GridArgs, job: dict) -> Path:
@@ -171,14 +226,12 @@ def train_and_evaluate(a: GridArgs, jobs: list[dict], log) -> list[Path]:
 
 
 def run(a: GridArgs, log=print) -> list[dict]:
-    import json
-
     from cra_warp.atomic_json import write_json
     from tools import figures
     from train.evaluate import method_summary, seed_means, write_csv
 
     jobs = plan(a)
-    recipes = {m: recipe_of(a, m) for m in a.methods}
+    recipes = {m: recipe_of(a, m) for m in labels(a)}
     for m, said in recipes.items():
         log(f"{m:12} recipe {said}")
     if a.dry_run:
@@ -186,8 +239,11 @@ def run(a: GridArgs, log=print) -> list[dict]:
             log(f"{j['method']:12} seed {j['seed']}: " + (" ".join(j["cmd"]) if j["cmd"] else f"done ({j['final']})"))
         return jobs
     evals = train_and_evaluate(a, jobs, log)
+    for j in jobs:
+        if j["method"].startswith(PAIR):
+            relabel(_eval_json(a, j), j["method"])
     records = [r for f in evals for r in json.loads(f.read_text())]
-    runs = [f"{m}={','.join(str(j['run_dir']) for j in jobs if j['method'] == m)}" for m in a.methods]
+    runs = [f"{m}={','.join(str(j['run_dir']) for j in jobs if j['method'] == m)}" for m in labels(a)]
     drawn = [a.out / "figures" / f"{n}.png" for n in FIGURES]
     if all(f.is_file() for f in drawn) and max(e.stat().st_mtime for e in evals) <= min(
             f.stat().st_mtime for f in drawn):
