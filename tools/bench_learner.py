@@ -9,7 +9,16 @@ mini-batches, rsl-rl's torch_compile_mode, the contrast variant, the critic CNN'
 update's achieved GFLOP/s and its share of this CPU's matmul peak in that precision (measured here once per thread
 count and precision). End to end: cra-train on the flat task, 1 process with N envs and 2 processes (torchrun,
 gloo) with N/2 each, on Newton in fp32 and on MuJoCo C with bf16, env-steps/s and collect/update seconds per
-iteration from the runner's progress lines.
+iteration from the runner's progress lines. Every record carries the CPU's model and precision flags.
+
+    cra-bench-learner --profile --json tools/results/bench_learner_profile_<cpu>.json
+
+--profile (issue 34): cra-train's own iteration on the real task (MuJoCo backend, one thread, N x terrain), each
+part timed in CPU seconds by wrapping the method that does it (physics, task, actor and critic inference, the
+returns with the batched critic, storage copies, the update's batches, forwards, contrast heads, backward and
+optimizer), and the headline: end-to-end env-steps/s over the full task's own rate at the same N (scripted-stand
+actions, as cra-bench's task_mujoco), both on the same clock. CPU seconds because the machine's cores are shared:
+wall time would count the neighbours' turns (it is recorded beside).
 """
 
 from __future__ import annotations
@@ -120,7 +129,8 @@ def end_to_end(num_envs: int, iterations: int, processes: int, sim: str = "newto
         raise RuntimeError(f"cra-train x{processes} failed: {proc.stderr.strip().splitlines()[-1:]}")
     rows = rows[1:]
     mean = lambda k: sum(r[k] for r in rows) / len(rows)  # noqa: E731
-    return {"kind": "end_to_end", "processes": processes, "sim": sim, "bf16": bf16, "num_envs": num_envs,
+    return {"kind": "end_to_end", "cpu": cpu_info(), "processes": processes, "sim": sim, "bf16": bf16,
+            "num_envs": num_envs,
             "iterations": len(rows),
             "env_steps_per_s": mean(1), "collect_s": mean(2), "update_s": mean(3)}
 
@@ -289,6 +299,17 @@ def _profile_worker(spec: dict) -> dict:
            "task_env_steps_per_s": steps / (med["physics"] + med["task"])}
     if stats["batches"]:
         rec["padded_trajectories_per_env"] = stats["trajectories"] / stats["batches"] / spec["num_envs"]
+    # the full task's own rate at this N (cra-bench's task_mujoco: scripted-stand actions, no learner), on the same
+    # clock as the parts above
+    with torch.inference_mode():
+        for _ in range(5):
+            env.step(env.stand_actions())
+        t, steps = clock(), 0
+        while steps < 24 or clock() - t < 3.0:
+            env.step(env.stand_actions())
+            steps += 1
+        rec["task_alone_env_steps_per_s"] = steps * spec["num_envs"] / (clock() - t)
+    rec["ratio"] = rec["env_steps_per_s"] / rec["task_alone_env_steps_per_s"]
     if spec.get("torch_profile"):
         from torch.profiler import ProfilerActivity, profile
 
@@ -315,12 +336,22 @@ def profile(terrains, sizes, iterations: int, bf16: bool, torch_profile: bool, l
     return out
 
 
+def print_ratio_table(records: list[dict], cpu: dict) -> None:
+    """The headline: end-to-end training over the full task's own rate at the same N, one core."""
+    print(f"\ncra-train end to end over the task alone, one core, MuJoCo backend, CPU seconds: {cpu['model']} "
+          f"({' '.join(cpu['flags'])})")
+    print(f"{'terrain':>7} {'N':>5} {'update':>6} {'end to end':>10} {'task alone':>10} {'ratio':>6}")
+    for r in records:
+        print(f"{r['terrain']:>7} {r['num_envs']:5d} {'bf16' if r['bf16'] else 'fp32':>6} "
+              f"{r['env_steps_per_s']:10.0f} {r['task_alone_env_steps_per_s']:10.0f} {r['ratio']:6.2f}")
+
+
 def print_profile(r: dict) -> None:
     s, total = r["seconds"], r["seconds"]["collect_s"] + r["seconds"]["update_s"]
     print(f"\nprofile {r['terrain']} N={r['num_envs']} ({'bf16' if r['bf16'] else 'fp32'} update, "
           f"{r['threads']} thread, CPU time): {r['env_steps_per_s']:.0f} env-steps/s end to end "
-          f"({r['env_steps_per_wall_s']:.0f} by the wall clock), the task alone "
-          f"{r['task_env_steps_per_s']:.0f} (ratio {r['env_steps_per_s'] / r['task_env_steps_per_s']:.2f})"
+          f"({r['env_steps_per_wall_s']:.0f} by the wall clock); the task alone {r['task_alone_env_steps_per_s']:.0f} "
+          f"(ratio {r['ratio']:.2f}), physics + task in training {r['task_env_steps_per_s']:.0f}"
           + (f", {r['padded_trajectories_per_env']:.2f} padded trajectories per env"
              if "padded_trajectories_per_env" in r else ""))
     for k, v in s.items():
@@ -374,6 +405,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.profile:
         os.environ.setdefault("OMP_NUM_THREADS", "1")
         records = profile(a.terrain, a.sizes, a.iterations, not a.no_bf16, a.torch_profile, json.loads(a.learner))
+        print_ratio_table(records, cpu_info())
         if a.json:
             write_json(a.json, {"cpu": cpu_info(), "profiles": records}, indent=1)
             print(f"wrote {a.json}")
