@@ -161,7 +161,11 @@ def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
     assert {r["policy"] for r in records} == {str(first / "model_1.pt"), "stand"}
     assert [r["difficulty"] for r in records[:7]] == pytest.approx([0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35])
     assert all(0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["fall_rate"] <= 1.0 for r in records)
-    assert "stairs_ascend" in capsys.readouterr().out
+    assert all(r["robots"] == 1 and r["success_ci95"] == pytest.approx(list(eval_cli.wilson(r["successes"], 1)))
+               for r in records)
+    printed = capsys.readouterr().out
+    assert "stairs_ascend" in printed and "95% interval" in printed
+    assert "Actor Model" not in printed and "GRU(" not in printed   # the table, not the networks
 
 
 def test_learner_bench_reads_the_progress_line(capsys):

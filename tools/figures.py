@@ -169,9 +169,12 @@ def record_stairs(checkpoint: Path, robots: int = 5, speed: float = 0.15, sim: s
     from train.runner import runner_for_checkpoint
 
     course = EvalCourseConfig(kinds=("stairs_ascend",))
-    runner, env = runner_for_checkpoint(checkpoint, num_envs=course.num_levels * robots, sim=sim, terrain="eval",
-                                        course=course, randomization=DomainRandConfig(enabled=False),
-                                        episode_length_s=1e6)
+    from train.evaluate import quiet_stdout
+
+    with quiet_stdout():  # rsl-rl's model dumps
+        runner, env = runner_for_checkpoint(checkpoint, num_envs=course.num_levels * robots, sim=sim,
+                                            terrain="eval", course=course,
+                                            randomization=DomainRandConfig(enabled=False), episode_length_s=1e6)
     policy = runner.get_inference_policy("cpu")
     names = env.robot.joint_names
     legs = [i for i, n in enumerate(names) if n.split("_")[0] in LEG_JOINTS]

@@ -200,22 +200,32 @@ def _turning_heading(env, yaw_rate: float) -> torch.Tensor:
     return yaw(env.world.root_quat) + yaw_rate / env.cfg.commands.heading_gain
 
 
+def quiet_stdout():
+    """stdout of a block dropped (what a user reads is the table); exceptions still propagate."""
+    import contextlib
+    import io
+
+    return contextlib.redirect_stdout(io.StringIO())
+
+
 def _policies(a: EvalArgs):
     """(name, factory) pairs; factory(num_envs, overrides) -> (env, act)."""
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
     def stand(num_envs, overrides):
-        env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed, world=world_config(a.sim or "newton"),
-                                 **overrides))
+        with quiet_stdout():
+            env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed,
+                                     world=world_config(a.sim or "newton"), **overrides))
         return env, lambda obs, dones: env.stand_actions()
 
     def checkpoint(path):
         def make(num_envs, overrides):
             from train.runner import runner_for_checkpoint
 
-            runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, sim=a.sim, seed=a.seed,
-                                                **overrides)
+            with quiet_stdout():  # rsl-rl's model dumps and the backends' set-up notes, once per policy and speed
+                runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, sim=a.sim,
+                                                    seed=a.seed, **overrides)
             policy = runner.get_inference_policy(a.device)
 
             def act(obs, dones):
