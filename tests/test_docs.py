@@ -76,3 +76,18 @@ def test_every_result_file_the_docs_name_exists():
         if missing:
             bad[str(doc.relative_to(ROOT))] = missing
     assert not bad, bad
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_table_row_has_its_header_columns(doc):
+    """A stray | in a cell (a flag's {a|b} choices) splits it and shifts the row; escape it as \\|."""
+    lines, bad, width = doc.read_text().splitlines(), [], None
+    for k, line in enumerate(lines):
+        cells = len(re.split(r"(?<!\\)\|", line)) if line.startswith("|") else None
+        if cells and k + 1 < len(lines) and set(lines[k + 1].replace(" ", "")) <= set("|-:") and width is None:
+            width = cells
+        elif cells is None:
+            width = None
+        elif width is not None and cells != width and not set(line.replace(" ", "")) <= set("|-:"):
+            bad.append(k + 1)
+    assert not bad, f"rows with the wrong column count at lines {bad}"
