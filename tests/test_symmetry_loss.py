@@ -56,3 +56,47 @@ def test_training_on_the_mirror_loss_makes_the_actor_equivariant():
     fresh, starts = _window(T=6, B=3)
     fresh["policy"] = fresh["policy"].flip(0) * 0.5
     assert mirror_loss(actor, fresh, starts, OBS_M, ACT_M).item() < 0.3 * first
+
+
+@pytest.mark.parametrize("whole_envs", [False, True])
+def test_ppo_logs_and_trains_the_mirror_term(whole_envs):
+    from rsl_rl.runners import OnPolicyRunner
+
+    from cra_warp.learning import ContrastConfig, LearnerConfig, PPOConfig, runner_cfg
+    from cra_warp.learning.bench import DummyEnv, collect
+
+    torch.manual_seed(0)
+    env = DummyEnv(8, seed=0)
+    swap = list(range(84))
+    swap[3], swap[4] = 4, 3
+    acts = list(range(26))
+    acts[0], acts[1] = 1, 0
+    cfg = LearnerConfig(num_steps_per_env=8, privileged_slices=env.privileged_slices, symmetry_weight=0.5,
+                        contrast=ContrastConfig(variant="same_step"), ppo=PPOConfig(num_mini_batches=2))
+    train_cfg = runner_cfg(cfg)
+    train_cfg["algorithm"] |= {"mirror": {"obs": (swap, [1.0] * 84), "actions": (acts, [1.0] * 26)},
+                               "whole_env_update": whole_envs}
+    alg = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu").alg
+    collect(alg, env, 8)
+    out = alg.update()
+    assert out["mirror"] > 0 and "infonce" in out   # logged beside the contrast, which still reads m_a
+    train_cfg["algorithm"].pop("mirror")
+    with pytest.raises(ValueError, match="mirror maps"):
+        OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")
+
+
+@pytest.mark.slow
+def test_cra_train_reads_the_mirror_maps_off_the_task(tmp_path):
+    import glob
+    import subprocess
+    import sys
+
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    subprocess.run([sys.executable, "-m", "train.train", "--sim", "mujoco", "--num-envs", "8", "--mini-batches", "2",
+                    "--max-iterations", "2", "--log-dir", str(tmp_path), "--no-export", "--quiet",
+                    "--override", "learner.symmetry_weight=0.5"], check=True, capture_output=True)
+    ea = EventAccumulator(glob.glob(str(tmp_path / "*"))[0])
+    ea.Reload()
+    values = [e.value for e in ea.Scalars("Loss/mirror")]
+    assert len(values) == 2 and all(v > 0 for v in values)

@@ -28,6 +28,13 @@ class CraRunner(OnPolicyRunner):
         self.run_info = run_info or {}  # stored in every checkpoint: what play/export need to rebuild the env
         self.history: list[dict] = []   # one record per iteration: what the progress line shows
         self._t0 = time.time()
+        alg = train_cfg.get("algorithm", {})
+        if alg.get("symmetry_weight"):  # the task's mirror maps (envs.observations), which the library cannot know
+            from envs.observations import action_mirror, actor_mirror
+
+            train_cfg = {**train_cfg, "algorithm": {**alg, "mirror": {
+                "obs": actor_mirror(env.layout, env.robot, env.cfg.uses_clock),
+                "actions": action_mirror(env.robot, env.cfg.uses_clock)}}}
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         log = self.logger.log
 

@@ -195,6 +195,9 @@ class LearnerConfig:
     # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
     fork_learning_rate: float = 5e-5
     fork_critic_warmup: int = 10
+    # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
+    # maps come from the task (the runner reads them off the env).
+    symmetry_weight: float = 0.0
     # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {
         "actor": ["policy"], "critic": ["privileged", "height_map"]})
@@ -270,5 +273,6 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                       "symmetry_cfg": None, "contrast_cfg": asdict(cfg.contrast),
                       "actor_obs_slice": list(cfg.privileged_slices["observation"])
                       if "observation" in cfg.privileged_slices else None,
-                      "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup},
+                      "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup,
+                      "symmetry_weight": cfg.symmetry_weight},
     }

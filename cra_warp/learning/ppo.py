@@ -38,6 +38,7 @@ from rsl_rl.utils import reduce_gradients_in_buckets
 from cra_warp.learning.config import ContrastConfig
 from cra_warp.learning.contrastive import ContrastiveHeads, contrast_pairs, episode_ids, info_nce, subsample
 from cra_warp.learning.models import CRAActor, CRACritic
+from cra_warp.learning.symmetry import Mirror, mirror_loss
 
 
 class _AuxLossHook:
@@ -93,7 +94,7 @@ class CRAPPO(PPO):
     def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
                  representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
                  critic_warmup: int = 0, batched_values: bool = True, whole_env_update: bool = False,
-                 **kwargs) -> None:
+                 symmetry_weight: float = 0.0, mirror: dict | None = None, **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
         # batched values need our CRACritic with a GRU; the whole-env update also a GRU CRAActor
         self.batched_values = (batched_values and isinstance(critic, CRACritic) and self.rnd is None
@@ -134,10 +135,24 @@ class CRAPPO(PPO):
             terms.append((cfg.weight, self._contrast_term))
         if hasattr(actor, "representation_loss"):
             terms.append((representation_weight, lambda batch: self._raw_actor.representation_loss(batch)))
+        if symmetry_weight:
+            if not isinstance(actor, CRAActor) or not mirror:
+                raise ValueError("the mirror loss needs a CRAActor and the task's mirror maps (mirror={'obs': "
+                                 "(index, sign), 'actions': (index, sign)})")
+            self.mirrors = Mirror(*mirror["obs"], self.device), Mirror(*mirror["actions"], self.device)
+            terms.append((symmetry_weight, self._mirror_term))  # last: it leaves the actor at the mirrored pass
         if terms:
             if self.symmetry is not None:
                 raise ValueError("the auxiliary losses use rsl-rl's symmetry slot; symmetry_cfg must be None")
             self.symmetry = _AuxLossHook(terms)
+
+    def _mirror_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
+        starts = None
+        if getattr(batch, "episodes", None) is not None:  # whole environments: restart where the episode changes
+            starts = torch.zeros_like(batch.episodes, dtype=torch.bool)
+            starts[1:] = batch.episodes[1:] != batch.episodes[:-1]
+        loss = mirror_loss(self._raw_actor, batch.observations, starts, *self.mirrors, masks=batch.masks)
+        return loss, {"mirror": loss.item()}
 
     def _contrast_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
         loss, acc, k = self.contrastive_loss(batch.masks, getattr(batch, "episodes", None))

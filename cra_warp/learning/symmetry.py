@@ -38,19 +38,26 @@ class Mirror:
 
 
 def mirror_loss(actor, obs, starts: torch.Tensor | None, obs_mirror: Mirror, action_mirror: Mirror,
-                group: str = "policy") -> torch.Tensor:
-    """L_mirror of ``actor`` (a CRAActor: ``sequence`` over whole environments) on obs [T, B] (a TensorDict whose
-    ``group`` holds the actor observation), episodes restarting where ``starts`` [T, B] is set."""
+                masks: torch.Tensor | None = None) -> torch.Tensor:
+    """L_mirror of ``actor`` (a CRAActor: ``sequence`` over whole environments, one observation group) on obs
+    [T, B] (a TensorDict), episodes restarting where ``starts`` [T, B] is set; only steps where ``masks`` [T, B]
+    is set count (rsl-rl's padded trajectories). Call it after the PPO quantities of the mini-batch are taken:
+    it leaves the actor's distribution at the mirrored pass (its ``latent`` is restored)."""
+    if len(actor.obs_groups) != 1:
+        raise ValueError(f"the mirror loss needs one actor observation group, got {actor.obs_groups}")
+    group = actor.obs_groups[0]
+    x = obs[group]
+    T, B = x.shape[:2]
     rnn = actor.rnn.rnn
-    T, B = obs[group].shape[:2]
-    h0 = torch.zeros(rnn.num_layers, B, rnn.hidden_size, device=obs[group].device, dtype=obs[group].dtype)
-    latent = actor.latent  # the PPO pass's m_a (the contrast reads it after this term): kept
+    h0 = torch.zeros(rnn.num_layers, B, rnn.hidden_size, device=x.device, dtype=x.dtype)
+    latent = actor.latent  # the PPO pass's m_a (the contrast may read it after this term): kept
     with torch.no_grad():
-        actor.sequence(obs, h0, starts)
+        actor.sequence({group: x}, h0, starts)
         target = action_mirror(actor.distribution.mean)
-    mirrored = obs.clone()
-    mirrored[group] = obs_mirror(obs[group])
-    actor.sequence(mirrored, h0, starts)
-    loss = (actor.distribution.mean - target).pow(2).sum(-1).mean()
+    actor.sequence({group: obs_mirror(x)}, h0, starts)
+    err = (actor.distribution.mean - target).pow(2).sum(-1)                 # [T, B]
     actor.latent = latent
-    return loss
+    if masks is None:
+        return err.mean()
+    m = masks.to(err.dtype)
+    return (err * m).sum() / m.sum().clamp(min=1.0)
