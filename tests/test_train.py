@@ -483,3 +483,18 @@ def test_what_a_user_reads(tmp_path):
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     assert "Actor Model" not in resumed.stdout and "GRU(" not in resumed.stdout, resumed.stdout
     assert resumed.stdout.strip().splitlines()[-1].startswith("run directory:")
+
+
+def test_terrain_levels_carry_over_only_onto_the_same_tiles():
+    """A checkpoint's terrain levels index its own tile layout: --init/--resume restores them only when rough.*
+    (but for the seed, which the run sets) is the same. rough_walk_v0 was saved on today's default tiles."""
+    from cra_warp.config_io import to_data
+    from cra_warp.learning.checkpoint import read_checkpoint
+    from cra_warp.terrain import TerrainConfig
+    from train.train import _tiles
+
+    stored = read_checkpoint("robots/adam_lite/policies/rough_walk_v0/checkpoint.pt")["infos"]["config"]["env"]
+    assert _tiles(stored.get("rough")) == _tiles(to_data(TerrainConfig(seed=7)))
+    assert _tiles(None) == _tiles(to_data(TerrainConfig()))
+    assert _tiles(stored.get("rough")) != _tiles(to_data(TerrainConfig(num_cols=8)))
+    assert _tiles(None) != _tiles(to_data(TerrainConfig(step_height=(0.02, 0.35))))

@@ -259,6 +259,14 @@ def _flat(d: dict, prefix: str = "") -> dict:
     return out
 
 
+def _tiles(rough: dict | None) -> dict:
+    """A stored rough-terrain config without its seed (the run's seed replaces it); None: the default tiles."""
+    from cra_warp.config_io import to_data
+    from cra_warp.terrain import TerrainConfig
+
+    return {k: v for k, v in (rough or to_data(TerrainConfig())).items() if k != "seed"}
+
+
 def seed_everything(seed: int) -> None:
     import numpy as np
     import torch
@@ -280,7 +288,7 @@ def run(a: TrainArgs):
     """Train as the arguments say; returns (run directory, runner)."""
     import torch
 
-    from cra_warp.config_io import with_overrides
+    from cra_warp.config_io import to_data, with_overrides
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
@@ -352,11 +360,15 @@ def run(a: TrainArgs):
         env.difficulty.level.fill_(infos["difficulty_level"])
     if "terrain_levels" in (infos or {}) and env.ground.curriculum is not None:
         saved = infos["terrain_levels"]
-        if len(saved) == a.num_envs:
+        # a level means a tile of one layout: levels saved on other tiles (rough.*) would put robots on wrong ones
+        saved_tiles = ((infos.get("config") or {}).get("env") or {}).get("rough")
+        same_tiles = _tiles(saved_tiles) == _tiles(to_data(env_cfg.rough))
+        if len(saved) == a.num_envs and same_tiles:
             env.ground.curriculum.restore(saved)
         elif rank == 0:
-            print(f"cra-train: {len(saved)} terrain levels saved for {a.num_envs} robots: the terrain curriculum "
-                  "starts again", file=sys.stderr)
+            why = "on other tiles (rough.*)" if not same_tiles else f"for {len(saved)} robots, not {a.num_envs}"
+            print(f"cra-train: the checkpoint's terrain levels were saved {why}: the terrain curriculum starts "
+                  "again", file=sys.stderr)
     torch.set_num_threads(threads)
     runner.learn(a.max_iterations)
     runner.exported = {}
