@@ -301,3 +301,18 @@ def test_tables_print_each_rate_with_its_interval(capsys):
     flat = [{"policy": "a/model.pt", "speed": 0.5, "trial": "flat", "robots": 200, "success_rate": 0.995}]
     eval_cli.print_table(flat)
     assert "97-100" in capsys.readouterr().out
+
+
+def test_the_course_records_how_a_robot_walks_on_its_way(course_env):
+    """The scripted stand on the course: no forward speed, both feet down (no swing height), the clock at its
+    nominal rate (zero gait actions) and an upright pelvis, as measured while the robots are on their way."""
+    env = course_env
+    tally = eval_cli.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
+    every = torch.ones(env.num_envs, dtype=torch.bool)
+    gait = tally.gait(every)
+    assert set(gait) == set(eval_cli.Tally.GAIT) and (tally.gait_steps > 0).all()
+    assert gait["gait_rate"] == pytest.approx(1.0)
+    assert abs(gait["forward_speed"]) < 0.05 and gait["swing_height"] == pytest.approx(0.0, abs=1e-3)
+    assert abs(gait["pitch_deg"]) < 10.0
+    assert tally.gait(every, uses_clock=False)["gait_rate"] is None
+    assert all(v is None for v in tally.gait(torch.zeros_like(every)).values())

@@ -98,16 +98,48 @@ def with_interval(record: dict) -> dict:
 
 class Tally:
     """Per-robot outcome of one deployment: a robot succeeds at the first step its base is within the target
-    radius, provided it has not fallen before; falls after success do not undo it."""
+    radius, provided it has not fallen before; falls after success do not undo it. While a robot is on its way
+    (trial running, neither succeeded nor fallen) it also sums how it walks: GAIT's quantities, per step."""
+
+    GAIT = ("gait_rate", "forward_speed", "swing_height", "pitch_deg")
 
     def __init__(self, num: int, device):
         self.fell = torch.zeros(num, dtype=torch.bool, device=device)
         self.succeeded = torch.zeros(num, dtype=torch.bool, device=device)
+        self.gait_sums = torch.zeros(num, len(self.GAIT), device=device)
+        self.gait_steps = torch.zeros(num, device=device)
 
     def update(self, reached: torch.Tensor, fell: torch.Tensor, active: torch.Tensor):
         """reached / fell [n] bool this step; only ``active`` robots (trial still running) count."""
         self.succeeded |= reached & ~self.fell & active
         self.fell |= fell & active & ~self.succeeded
+
+    def walk(self, env, active: torch.Tensor):
+        """Sum this step's gait of the ``active`` robots still on their way: the clock's rate (x the nominal
+        1 / T_cycle: what the policy chose, 1 for a fixed cycle), forward speed [m/s, base frame], mean sole height
+        of the feet in the air [m] and pelvis pitch [deg, > 0 leaning forward]."""
+        on = active & ~self.succeeded & ~self.fell
+        g = env.projected_gravity
+        swing = ~env.contact
+        rate = ((1.0 + env.cfg.gait.alpha * env.clock.deltas[:, 0]).clamp(min=0.0) if env.cfg.variant == "adaptive"
+                else torch.ones_like(g[:, 0]))
+        now = torch.stack([rate, env.base_lin_vel[:, 0],
+                           (env.sole_height * swing).sum(-1) / swing.sum(-1).clamp(min=1),
+                           torch.rad2deg(torch.atan2(g[:, 0], -g[:, 2]))], -1)
+        self.gait_sums += now * on.unsqueeze(-1)
+        self.gait_steps += on
+
+    def gait(self, select: torch.Tensor, uses_clock: bool = True) -> dict[str, float | None]:
+        """Means over the ``select``ed robots [n] bool of each robot's mean gait (robots never on their way left
+        out); the rate is None without a clock."""
+        seen = select & (self.gait_steps > 0)
+        if not seen.any():
+            return dict.fromkeys(self.GAIT)
+        means = (self.gait_sums[seen] / self.gait_steps[seen].unsqueeze(-1)).mean(0).tolist()
+        out = dict(zip(self.GAIT, means))
+        if not uses_clock:
+            out["gait_rate"] = None
+        return out
 
 
 def trial_steps(dep, speed: float, dt: float) -> torch.Tensor:
@@ -133,6 +165,7 @@ def evaluate(env, act, speed: float) -> Tally:
             dones = d.bool()
             fell = dones & ~extras["time_outs"]
             # a fallen robot was respawned inside step(): its position no longer tells where it got to
+            tally.walk(env, (k < steps) & ~dones)  # before the update: the step that ends a trial counts
             tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps)
             # a success or a fall is final: once every robot has one or is past its trial, the rest changes nothing
             if k % 25 == 0 and not ((k < steps) & ~tally.succeeded & ~tally.fell).any():
@@ -363,10 +396,12 @@ def _run(a: EvalArgs) -> list[dict]:
             falls = c.success_rate(dep, tally.fell)
             for k, kind in enumerate(c.kinds):
                 for lv in range(c.cfg.num_levels):
+                    cell = (dep.kind == k) & (dep.level == lv)
                     records.append(with_interval({
                         "policy": name, "speed": speed, "kind": kind, "level": lv,
                         "difficulty": float(c.difficulty[k, lv]), "robots": a.robots_per_level,
-                        "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv])}))
+                        "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv]),
+                        **tally.gait(cell, env.cfg.uses_clock)}))
     return records
 
 
@@ -423,6 +458,10 @@ def print_table(records: list[dict]) -> None:
             print(f"  {'':15} " + " ".join(f"{100 * r['success_rate']:>4.0f} ({100 * r['fall_rate']:>2.0f})"
                                            for r in row))
             print(f"  {'':15} " + " ".join(f"{_pct(r.get('success_ci95')):>9}" for r in row))
+            if all(r.get("forward_speed") is not None for r in row):  # on the way: clock rate x, v_x m/s
+                print(f"  {'rate, v_x':15} " + " ".join(
+                    f"{'-' if r.get('gait_rate') is None else format(r['gait_rate'], '.2f'):>4} "
+                    f"{r['forward_speed']:+.2f}".rjust(9) for r in row))
 
 
 def _pct(ci) -> str:
