@@ -18,7 +18,9 @@ part timed in CPU seconds by wrapping the method that does it (physics, task, ac
 returns with the batched critic, storage copies, the update's batches, forwards, contrast heads, backward and
 optimizer), and the headline: end-to-end env-steps/s over the full task's own rate at the same N (scripted-stand
 actions, as cra-bench's task_mujoco), both on the same clock. CPU seconds because the machine's cores are shared:
-wall time would count the neighbours' turns (it is recorded beside).
+wall time would count the neighbours' turns (it is recorded beside). Each record also counts the update's FLOPs
+(matmuls and convolutions, on the warm-up iteration) and this core's matmul peak in the update's precision: the
+update's floor in seconds and the ratio the same math would reach with the update at that peak.
 """
 
 from __future__ import annotations
@@ -53,8 +55,10 @@ LEVERS = [
 PROGRESS = re.compile(r"it (\d+)/\d+ \|\s+(\d+) env-steps/s \| collect ([\d.]+)s update ([\d.]+)s")
 
 
-def matmul_peak_gflops(threads: int, n: int = 2048, repeats: int = 10, precision: str = "fp32") -> float:
-    """Best GFLOP/s of an n x n matmul on ``threads`` torch threads in ``precision`` (fp32 or bf16)."""
+def matmul_peak_gflops(threads: int, n: int = 2048, repeats: int = 10, precision: str = "fp32",
+                       clock=time.perf_counter) -> float:
+    """Best GFLOP/s of an n x n matmul on ``threads`` torch threads in ``precision`` (fp32 or bf16); ``clock``
+    time.process_time gives GFLOP per CPU second (one thread on a shared core)."""
     import torch
 
     torch.set_num_threads(threads)
@@ -63,9 +67,9 @@ def matmul_peak_gflops(threads: int, n: int = 2048, repeats: int = 10, precision
     a @ b
     best = float("inf")
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         a @ b
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, clock() - t0)
     return 2 * n**3 / best / 1e9
 
 
@@ -265,6 +269,22 @@ def _profile_worker(spec: dict) -> dict:
         return compute_returns(*a, **kw)
 
     alg.compute_returns = marked_returns
+    # the FLOPs of one update (matmuls and convolutions, forward and backward), counted on the warm-up iteration
+    # (left out of the medians): with this CPU's matmul peak they give the update's floor in seconds
+    from torch.utils.flop_counter import FlopCounterMode
+
+    update = alg.update
+
+    def counted_update(*a, **kw):
+        if "update_gflop" in flops:
+            return update(*a, **kw)
+        with FlopCounterMode(display=False) as counter:
+            out = update(*a, **kw)
+        flops["update_gflop"] = counter.get_total_flops() / 1e9
+        return out
+
+    flops: dict[str, float] = {}
+    alg.update = counted_update
 
     def record(**kw):
         now = clock()
@@ -310,6 +330,16 @@ def _profile_worker(spec: dict) -> dict:
             steps += 1
         rec["task_alone_env_steps_per_s"] = steps * spec["num_envs"] / (clock() - t)
     rec["ratio"] = rec["env_steps_per_s"] / rec["task_alone_env_steps_per_s"]
+    # what the same math could reach: the update (after the returns) at this core's matmul peak in its precision,
+    # the rest of the iteration as measured
+    peak = matmul_peak_gflops(spec["threads"], repeats=10, precision="bf16" if rec["bf16"] else "fp32", clock=clock)
+    gflop = flops.get("update_gflop", 0.0)
+    update_work = med["update_s"] - med["returns"]
+    floor = gflop / peak
+    rec.update(update_gflop=gflop, update_gflops=gflop / update_work, matmul_peak_gflops=peak,
+               update_floor_s=floor,
+               ratio_at_matmul_peak=spec["num_envs"] * learner.num_steps_per_env / (med["collect_s"] + med["returns"] + floor)
+               / rec["task_alone_env_steps_per_s"])
     if spec.get("torch_profile"):
         from torch.profiler import ProfilerActivity, profile
 
@@ -340,10 +370,11 @@ def print_ratio_table(records: list[dict], cpu: dict) -> None:
     """The headline: end-to-end training over the full task's own rate at the same N, one core."""
     print(f"\ncra-train end to end over the task alone, one core, MuJoCo backend, CPU seconds: {cpu['model']} "
           f"({' '.join(cpu['flags'])})")
-    print(f"{'terrain':>7} {'N':>5} {'update':>6} {'end to end':>10} {'task alone':>10} {'ratio':>6}")
+    print(f"{'terrain':>7} {'N':>5} {'update':>6} {'end to end':>10} {'task alone':>10} {'ratio':>6} {'at peak':>7}")
     for r in records:
         print(f"{r['terrain']:>7} {r['num_envs']:5d} {'bf16' if r['bf16'] else 'fp32':>6} "
-              f"{r['env_steps_per_s']:10.0f} {r['task_alone_env_steps_per_s']:10.0f} {r['ratio']:6.2f}")
+              f"{r['env_steps_per_s']:10.0f} {r['task_alone_env_steps_per_s']:10.0f} {r['ratio']:6.2f} "
+              f"{r.get('ratio_at_matmul_peak', float('nan')):7.2f}")
 
 
 def print_profile(r: dict) -> None:
@@ -358,6 +389,11 @@ def print_profile(r: dict) -> None:
         if not k.endswith("_s") and v > 0.0005:
             print(f"  {k:22} {v:7.3f} s {100 * v / total:5.1f}%")
     print(f"  {'collect / update':22} {s['collect_s']:.3f} / {s['update_s']:.3f} s")
+    if "update_gflop" in r:
+        print(f"  update: {r['update_gflop']:.0f} GFLOP at {r['update_gflops']:.0f} GFLOP/s, "
+              f"{100 * r['update_gflops'] / r['matmul_peak_gflops']:.0f}% of the {r['matmul_peak_gflops']:.0f} GFLOP/s "
+              f"matmul peak (floor {r['update_floor_s']:.2f} s); ratio with the update at that peak "
+              f"{r['ratio_at_matmul_peak']:.2f}")
     for op in r.get("top_ops", [])[:12]:
         print(f"    {op['op'][:48]:48} {op['self_s']:7.3f} s {op['calls']:7d} calls")
 
