@@ -1,5 +1,5 @@
-"""What every command line of cra_warp shares: the choices (typed, so --help lists them), the one-line error, the
-argument parser that keeps to it, and the device and simulator checks."""
+"""What every command line of cra_warp shares (train/ and tools/ alike): the one-line error, the argument parser that
+keeps to it, and the device and simulator checks. The method and task choices are envs.methods'."""
 
 from __future__ import annotations
 
@@ -8,21 +8,8 @@ import io
 import sys
 from typing import Literal, TypeVar, get_args
 
-Task = Literal["flat", "rough"]
 Sim = Literal["newton", "mujoco"]
-Variant = Literal["ours", "sequential", "no_contrast", "fixed_cycle", "clock_free", "dreamwaq", "dwl"]
-TASKS, SIMS = get_args(Task), get_args(Sim)
-VARIANTS = {  # the experiment registry (paper IV-A): variant -> (env variant, contrast variant, actor kind)
-    "ours": ("adaptive", "same_step", "gru"),
-    "sequential": ("adaptive", "sequential", "gru"),
-    "no_contrast": ("adaptive", "none", "gru"),
-    "fixed_cycle": ("fixed_cycle", "same_step", "gru"),
-    "clock_free": ("clock_free", "same_step", "gru"),
-    # the baselines keep our clock, rewards and critic; their actors are cra_warp/learning/baselines.py's
-    "dreamwaq": ("adaptive", "none", "dreamwaq"),
-    "dwl": ("adaptive", "none", "dwl"),
-}
-assert tuple(VARIANTS) == get_args(Variant)
+SIMS = get_args(Sim)
 
 T = TypeVar("T")
 
@@ -69,8 +56,7 @@ def check_device(device: str) -> None:
         raise UsageError(f"--device {device}: no such CUDA device on this machine")
 
 
-def world_config(sim: str, **kw):
-    """The WorldConfig of a --sim choice."""
-    from cra_warp.sim import WorldConfig
-
-    return WorldConfig(backend=sim, **kw)
+def quiet_stdout():
+    """stdout of a block dropped: what a user reads is a command's own lines, not rsl-rl's model dumps or the
+    backends' set-up notes; exceptions still propagate."""
+    return contextlib.redirect_stdout(io.StringIO())

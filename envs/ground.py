@@ -3,7 +3,7 @@ points and the terrain curriculum.
 
 "flat": the ground plane; robots spawn on a 2 m grid (worlds never collide with each other: the spacing only keeps
 a recorded rollout readable). "rough": cra_warp.terrain's curriculum course (stairs, slopes, uneven ground), its
-collision boxes and its level curriculum. "eval": the evaluation course (cra_warp.terrain_course); every robot
+collision boxes and its level curriculum. "eval": the evaluation course (cra_warp.terrain.course); every robot
 spawns at its deployment's start pose, facing its target, and no curriculum runs. All sample heights through the
 same HeightSampler.
 """
@@ -17,10 +17,10 @@ import numpy as np
 import torch
 
 from cra_warp.terrain import HeightField, TerrainConfig, generate_terrain
-from cra_warp.terrain_boxes import terrain_boxes
-from cra_warp.terrain_course import Deployment, EvalCourse, EvalCourseConfig
-from cra_warp.terrain_curriculum import TerrainCurriculum
-from cra_warp.terrain_sampling import HeightSampler
+from cra_warp.terrain.boxes import terrain_boxes
+from cra_warp.terrain.course import Deployment, EvalCourse, EvalCourseConfig
+from cra_warp.terrain.curriculum import TerrainCurriculum
+from cra_warp.terrain.sampling import HeightSampler
 from cra_warp.sim import TerrainBoxes
 
 GROUND_KINDS = ("flat", "rough", "eval")

@@ -23,9 +23,10 @@ Where the paper is silent we take what the legged-locomotion field does; every s
 - Gait phase input (2 of the paper's 84): sin and cos of the global phase 2 pi phi / T_cycle. The leg signals
   s, c add the offsets d1, d2, which the policy sees in its previous action; (s, c) themselves would not tell
   phi from 0.5 - phi whenever d1 = d2 (always in fixed_cycle).
-- Variants: "adaptive" (ours), "fixed_cycle" (the gait actions are ignored, so the clock runs at T_cycle with
-  zero offsets; the action stays 26-dim so the network is the same as ours), "clock_free" (no clock inputs and no
-  gait actions: actor observation 79, action 23; the contact-pattern reward is off).
+- Clock modes (LocoConfig.variant; envs/methods.py maps methods to them): "adaptive" (ours), "fixed_cycle" (the
+  gait actions are ignored, so the clock runs at T_cycle with zero offsets; the action stays 26-dim so the network
+  is the same as ours), "clock_free" (no clock inputs and no gait actions: actor observation 79, action 23; the
+  contact-pattern reward is off).
 """
 
 from __future__ import annotations
@@ -35,12 +36,13 @@ from typing import Literal
 
 from cra_warp.gait import GaitClockConfig
 from cra_warp.terrain import TerrainConfig
-from cra_warp.terrain_course import EvalCourseConfig
-from cra_warp.terrain_curriculum import RULES as CURRICULUM_RULES
+from cra_warp.terrain.course import EvalCourseConfig
+from cra_warp.terrain.curriculum import RULES as CURRICULUM_RULES
 from cra_warp.sim import WorldConfig
 
-Variant = Literal["adaptive", "fixed_cycle", "clock_free"]
-VARIANTS: tuple[str, ...] = ("adaptive", "fixed_cycle", "clock_free")
+# the gait clock a method runs (envs/methods.py); stored as LocoConfig.variant, the name every config.json uses
+ClockMode = Literal["adaptive", "fixed_cycle", "clock_free"]
+CLOCK_MODES: tuple[str, ...] = ("adaptive", "fixed_cycle", "clock_free")
 
 
 @dataclass
@@ -188,7 +190,7 @@ class DifficultyConfig:
 class LocoConfig:
     num_envs: int = 64
     device: str = "cpu"
-    variant: Variant = "adaptive"
+    variant: ClockMode = "adaptive"                       # the clock mode
     episode_length_s: float = 20.0
     world: WorldConfig = field(default_factory=WorldConfig)
     gait: GaitClockConfig = field(default_factory=GaitClockConfig)
@@ -221,8 +223,8 @@ class LocoConfig:
     def __post_init__(self):
         if self.num_envs < 1:
             raise ValueError(f"LocoConfig.num_envs must be >= 1, got {self.num_envs}")
-        if self.variant not in VARIANTS:
-            raise ValueError(f"LocoConfig.variant must be one of {VARIANTS}, got {self.variant!r}")
+        if self.variant not in CLOCK_MODES:
+            raise ValueError(f"LocoConfig.variant (the clock mode) must be one of {CLOCK_MODES}, got {self.variant!r}")
         if self.episode_length_s <= 0:
             raise ValueError(f"LocoConfig.episode_length_s must be > 0, got {self.episode_length_s}")
         unknown = set(self.rewards.weights) - set(DEFAULT_WEIGHTS)

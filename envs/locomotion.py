@@ -17,7 +17,7 @@ from tensordict import TensorDict
 from cra_warp.gait import GaitClock
 from cra_warp.kinematics import Kinematics
 from cra_warp.stand import ScriptedStand
-from cra_warp.terrain_curriculum import PathMeter
+from cra_warp.terrain.curriculum import PathMeter
 from cra_warp.rotations import quat_rotate_inv, wrap_angle, yaw, yaw_quat
 from cra_warp.sim import make_world
 from envs import observations as obs_layout

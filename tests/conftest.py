@@ -3,6 +3,7 @@
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
@@ -43,3 +44,29 @@ def stand_steps(world, steps: int, q_ref=None, each=None):
         world.step()
         if each is not None:
             each(k)
+
+
+# The default terrain and its sampler, built once per module (the terrain tests share them).
+@pytest.fixture(scope="module")
+def terrain():
+    from cra_warp.terrain import TerrainConfig, generate_terrain
+
+    return generate_terrain(TerrainConfig())
+
+
+@pytest.fixture(scope="module")
+def sampler(terrain):
+    from cra_warp.terrain.sampling import HeightSampler
+
+    return HeightSampler(terrain.field)
+
+
+def tile_of(terrain, kind, level):
+    return terrain.tile(level, terrain.column_types.index(kind))
+
+
+def centre_row(terrain, tile):
+    """Heights relative to the rim along the tile's centre line in x (from its -x edge to its centre), [n/2]."""
+    rows, cols = tile.cells
+    mid = (cols.start + cols.stop) // 2
+    return terrain.field.heights[rows.start:(rows.start + rows.stop) // 2, mid].astype(np.float64) - terrain.base_height

@@ -9,7 +9,7 @@ import pytest
 
 from cra_warp.config_io import to_data
 from train.campaign import ROOT, CampaignArgs, resume, save, train_argv
-from train.cli import parse_args
+from cra_warp.cli import parse_args
 from train.train import TrainArgs
 
 

@@ -1,14 +1,16 @@
-"""The evaluator (cra-eval): success bookkeeping, a deployment on the evaluation course, bad input."""
+"""The evaluation library (envs/evaluation.py) and its command line (cra-eval): success bookkeeping, a deployment
+on the evaluation course, the statistics, bad input."""
 
 import pytest
 import torch
 
 from conftest import one_line_error
+from envs import evaluation
 from train import evaluate as eval_cli
 
 
 def test_tally_success_needs_reaching_before_any_fall():
-    t = eval_cli.Tally(4, "cpu")
+    t = evaluation.Tally(4, "cpu")
     on = torch.ones(4, dtype=torch.bool)
     # robot 0 falls then reaches; 1 reaches then falls; 2 reaches after its trial ended; 3 never reaches
     t.update(torch.tensor([0, 1, 0, 0]).bool(), torch.tensor([1, 0, 0, 0]).bool(), on)
@@ -29,7 +31,7 @@ def test_short_names_tell_seed_runs_apart():
 @pytest.fixture(scope="module")
 def course_env():
     """One robot per level on the stair ascent and the slope descent of the evaluation course."""
-    from cra_warp.terrain_course import EvalCourseConfig
+    from cra_warp.terrain.course import EvalCourseConfig
     from envs.loco_config import DomainRandConfig, LocoConfig
     from envs.locomotion import LocoEnv
 
@@ -56,12 +58,12 @@ def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
     def stand(obs, dones):
         return env.stand_actions()
 
-    far = eval_cli.evaluate(env, stand, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
+    far = evaluation.evaluate(env, stand, speed=8.0)   # short trials: 2 x 3.75 m / 8 m/s + 2 s
     assert not far.succeeded.any() and not far.fell.any()
     dep = env.ground.deployment
     env.ground.deployment = dep._replace(radius=4.0)
     try:
-        near = eval_cli.evaluate(env, stand, speed=8.0)
+        near = evaluation.evaluate(env, stand, speed=8.0)
     finally:
         env.ground.deployment = dep
     assert near.succeeded.all() and not near.fell.any()
@@ -75,11 +77,11 @@ def test_a_deployment_ends_once_every_robot_is_decided(course_env, monkeypatch):
     monkeypatch.setattr(env, "step", lambda actions: calls.append(1) or step(actions))
     env.ground.deployment = dep._replace(radius=4.0)
     try:
-        near = eval_cli.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
+        near = evaluation.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
     finally:
         env.ground.deployment = dep
     assert near.succeeded.all()
-    assert len(calls) == 1 < int(eval_cli.trial_steps(dep, 8.0, env.dt).max())
+    assert len(calls) == 1 < int(evaluation.trial_steps(dep, 8.0, env.dt).max())
 
 
 def test_commands_point_at_the_target(course_env):
@@ -139,7 +141,7 @@ def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     from envs.locomotion import LocoEnv
 
     env = LocoEnv(LocoConfig(num_envs=4, randomization=DomainRandConfig(enabled=False), episode_length_s=1e6))
-    zero = eval_cli.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 10.0)
+    zero = evaluation.flat_trial(env, lambda obs, dones: torch.zeros(env.num_envs, env.num_actions), 0.4, 10.0)
     assert zero["fall_rate"] == 1.0   # a zero action is no stand: it falls after ~3.4 s (nominal robot)
 
 
@@ -194,7 +196,7 @@ class _AlternatingFeet:
 
 
 def test_flat_trial_counts_touchdowns_and_single_support():
-    r = eval_cli.flat_trial(_AlternatingFeet(), lambda obs, dones: None, 0.5, 10.0)
+    r = evaluation.flat_trial(_AlternatingFeet(), lambda obs, dones: None, 0.5, 10.0)
     assert r["success_rate"] == 1.0 and r["tracking_error"] == pytest.approx(0.2)
     assert r["mean_error"] == pytest.approx(0.2, abs=1e-5) and r["tracking_error_y"] == 0.0
     assert r["offset"] == pytest.approx(-0.2, abs=1e-5)
@@ -229,13 +231,13 @@ def test_seed_means_and_csv(tmp_path):
     recs = [{"policy": f"s{s}/model.pt", "method": "ours", "train_seed": s, "speed": 0.5, "kind": "uneven",
              "level": lv, "difficulty": 0.1 * lv, "robots": 4, "success_rate": rate, "fall_rate": 1 - rate}
             for s, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.25))) for lv, rate in enumerate(rates)]
-    means = eval_cli.seed_means(recs)
+    means = evaluation.seed_means(recs)
     assert [(m["level"], m["seeds"]) for m in means] == [(0, 2), (1, 2)]
     # level 0: 4 + 2 of 8 robots over both seeds
-    assert means[0]["robots"] == 8 and means[0]["success_ci95"] == pytest.approx(eval_cli.wilson(6, 8))
+    assert means[0]["robots"] == 8 and means[0]["success_ci95"] == pytest.approx(evaluation.wilson(6, 8))
     assert means[0]["success_mean"] == pytest.approx(0.75) and means[0]["success_std"] == pytest.approx(0.25)
     assert means[1]["success_mean"] == pytest.approx(0.375) and means[1]["success_std"] == pytest.approx(0.125)
-    eval_cli.write_csv(tmp_path / "eval.csv", recs)
+    evaluation.write_csv(tmp_path / "eval.csv", recs)
     rows = list(csv.DictReader((tmp_path / "eval.csv").open()))
     assert [r["table"] for r in rows] == ["record"] * 4 + ["seed_mean"] * 2
     assert float(rows[4]["success_mean"]) == pytest.approx(0.75) and rows[0]["train_seed"] == "1"
@@ -247,7 +249,7 @@ def test_method_summary_averages_each_seed_then_over_seeds():
              "success_rate": rate, "fall_rate": 1 - rate, "protocol": "speed_sweep"}
             for s, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.25))) for lv, rate in enumerate(rates)]
     recs.append({**recs[0], "protocol": "ablation", "success_rate": 0.0, "fall_rate": 1.0})
-    row = eval_cli.method_summary(recs)["ours"]
+    row = evaluation.method_summary(recs)["ours"]
     assert row["seeds"] == 2 and row["success_rate"]["per_seed"] == pytest.approx([0.75, 0.375])
     assert row["success_rate"]["mean"] == pytest.approx(0.5625) and row["success_rate"]["std"] == pytest.approx(0.1875)
     assert row["fall_rate"]["mean"] == pytest.approx(0.4375)
@@ -270,7 +272,7 @@ def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
     heading_mode, env.cfg.commands.heading_mode = env.cfg.commands.heading_mode, False
     env.ground.deployment = dep._replace(target=torch.cat([aside, dep.target[:, 2:]], -1))
     try:
-        eval_cli.evaluate(env, stand, speed=8.0)
+        evaluation.evaluate(env, stand, speed=8.0)
     finally:
         env.cfg.commands.heading_mode = heading_mode
         env.ground.deployment = dep
@@ -280,16 +282,16 @@ def test_the_course_steers_a_policy_trained_on_yaw_rate_commands(course_env):
 def test_wilson_intervals_match_the_published_values_and_tell_small_cells_apart():
     """The 95% Wilson score interval (Newcombe 1998, table I: 0/10 -> 0-0.2775, 1/29 -> 0.0061-0.1718,
     81/263 -> 0.2553-0.3662), and what it means for a 10-robot course cell: 30% and 10% overlap."""
-    assert eval_cli.wilson(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)
-    assert eval_cli.wilson(1, 29) == pytest.approx((0.0061, 0.1718), abs=1e-4)
-    assert eval_cli.wilson(81, 263) == pytest.approx((0.2553, 0.3662), abs=1e-4)
-    assert eval_cli.wilson(3, 0) is None
-    lo30, _ = eval_cli.wilson(3, 10)
-    _, hi10 = eval_cli.wilson(1, 10)
+    assert evaluation.wilson(0, 10) == pytest.approx((0.0, 0.2775), abs=1e-4)
+    assert evaluation.wilson(1, 29) == pytest.approx((0.0061, 0.1718), abs=1e-4)
+    assert evaluation.wilson(81, 263) == pytest.approx((0.2553, 0.3662), abs=1e-4)
+    assert evaluation.wilson(3, 0) is None
+    lo30, _ = evaluation.wilson(3, 10)
+    _, hi10 = evaluation.wilson(1, 10)
     assert lo30 < hi10
-    rec = eval_cli.with_interval({"success_rate": 0.3, "robots": 10})
-    assert rec["successes"] == 3 and rec["success_ci95"] == pytest.approx(list(eval_cli.wilson(3, 10)))
-    assert "success_ci95" not in eval_cli.with_interval({"success_rate": 0.3})   # no robot count, no interval
+    rec = evaluation.with_interval({"success_rate": 0.3, "robots": 10})
+    assert rec["successes"] == 3 and rec["success_ci95"] == pytest.approx(list(evaluation.wilson(3, 10)))
+    assert "success_ci95" not in evaluation.with_interval({"success_rate": 0.3})   # no robot count, no interval
 
 
 def test_tables_print_each_rate_with_its_interval(capsys):
@@ -307,10 +309,10 @@ def test_the_course_records_how_a_robot_walks_on_its_way(course_env):
     """The scripted stand on the course: no forward speed, both feet down (no swing height), the clock at its
     nominal rate (zero gait actions) and an upright pelvis, as measured while the robots are on their way."""
     env = course_env
-    tally = eval_cli.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
+    tally = evaluation.evaluate(env, lambda obs, dones: env.stand_actions(), speed=8.0)
     every = torch.ones(env.num_envs, dtype=torch.bool)
     gait = tally.gait(every)
-    assert set(gait) == set(eval_cli.Tally.GAIT) and (tally.gait_steps > 0).all()
+    assert set(gait) == set(evaluation.Tally.GAIT) and (tally.gait_steps > 0).all()
     assert gait["gait_rate"] == pytest.approx(1.0)
     assert abs(gait["forward_speed"]) < 0.05 and gait["swing_height"] == pytest.approx(0.0, abs=1e-3)
     assert abs(gait["pitch_deg"]) < 10.0

@@ -63,7 +63,7 @@ def test_figures_from_synthetic_logs_and_results(tmp_path, capsys):
     assert terrain["stairs_ascend"]["dwl"]["x"] == pytest.approx([5.0, 10.0])   # cm
     assert terrain["slope_ascend"]["ours"]["mean"] == pytest.approx([90.0, 80.0])
     # each point's robots over both seeds (10 each) and the Wilson interval of their pooled successes (9 + 9 of 20)
-    from train.evaluate import wilson
+    from envs.evaluation import wilson
 
     assert terrain["slope_ascend"]["ours"]["robots"] == [20, 20]
     assert terrain["slope_ascend"]["ours"]["ci95"][0] == pytest.approx([100 * v for v in wilson(18, 20)])

@@ -48,7 +48,7 @@ def test_a_method_that_cannot_use_the_recipe_gets_its_fair_pair(tmp_path):
     jobs = {j["method"]: j for j in grid.plan(a)}
     assert set(jobs) == {"ours", "clock_free", "ours_as_clock_free"}
     pair = jobs["ours_as_clock_free"]["cmd"]
-    assert pair[pair.index("--variant") + 1] == "ours" and pair[pair.index("--recipe") + 1] == "walk"
+    assert pair[pair.index("--method") + 1] == "ours" and pair[pair.index("--recipe") + 1] == "walk"
     over = pair[pair.index("--override") + 1:]
     assert "gait.swing_feedforward=0.0" in over and "gait.alpha=0.5" in over and "gait.beta_scale=1.0" in over
     assert not any(k.startswith("rewards.") for k in over)   # the rest of the recipe is the same for both
@@ -56,7 +56,7 @@ def test_a_method_that_cannot_use_the_recipe_gets_its_fair_pair(tmp_path):
     # the pair's overrides reach the config cra-train builds: ours with the clock's recipe keys at the defaults
     from train import train as train_cli
 
-    cfg, _, _ = train_cli.env_config(train_cli.TrainArgs(task="rough", variant="ours", recipe="walk",
+    cfg, _, _ = train_cli.configs(train_cli.TrainArgs(task="rough", variant="ours", recipe="walk",
                                                          override=tuple(over)))
     assert cfg.gait.stride_feedforward == 0.0 and cfg.rewards.weights["lin_vel_tracking"] == 9.0
     assert [j["method"] for j in grid.plan(grid.GridArgs(methods=("ours", "clock_free"), seeds=(1,), out=tmp_path,

@@ -13,7 +13,7 @@ from cra_warp.config_io import to_data
 from envs import recipes
 from envs.loco_config import LocoConfig
 from train import train as train_cli
-from train.cli import VARIANTS
+from envs.methods import METHODS
 
 POLICIES = Path(__file__).resolve().parents[1] / "robots" / "adam_lite" / "policies"
 SHIPPED = sorted(p for p in POLICIES.iterdir() if (p / "config.json").is_file())
@@ -43,13 +43,13 @@ def flat(d: dict, prefix: str = "") -> dict:
 
 
 def resolved(**kw) -> LocoConfig:
-    env_cfg, _, _ = train_cli.env_config(train_cli.TrainArgs(**kw))
+    env_cfg, _, _ = train_cli.configs(train_cli.TrainArgs(**kw))
     return env_cfg
 
 
 @pytest.mark.parametrize("name", list(recipes.RECIPES))
 @pytest.mark.parametrize("task", ["flat", "rough"])
-@pytest.mark.parametrize("variant", list(VARIANTS))
+@pytest.mark.parametrize("variant", list(METHODS))
 def test_every_recipe_builds_a_valid_config(name, task, variant):
     cfg = resolved(recipe=name, task=task, variant=variant)
     overrides, dropped = recipes.resolve(name, task, uses_clock=cfg.uses_clock)
@@ -78,7 +78,7 @@ def test_the_default_recipe_is_walk_and_a_resume_keeps_the_checkpoints(tmp_path)
     a = train_cli.TrainArgs(log_dir=tmp_path, resume=ckpt, recipe="walk")
     train_cli.validate(a)
     assert a.recipe == "walk"   # said explicitly, it wins
-    _, _, record = train_cli.env_config(train_cli.TrainArgs(variant="clock_free"))
+    _, _, record = train_cli.configs(train_cli.TrainArgs(variant="clock_free"))
     assert record["name"] == "walk" and "gait.swing_feedforward" in record["not_used"]
     assert not any(k.startswith("gait.") for k in record["overrides"])
     assert "without gait.alpha" in recipes.describe("walk", uses_clock=False) and "no clock" in recipes.describe(

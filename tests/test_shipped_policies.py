@@ -19,8 +19,8 @@ POLICIES = sorted((Path(__file__).resolve().parents[1] / "robots" / "adam_lite" 
 @pytest.mark.parametrize("checkpoint", POLICIES, ids=lambda p: p.parent.name)
 def test_shipped_policy_walks_and_its_export_acts_as_its_checkpoint(checkpoint):
     from envs.loco_config import DomainRandConfig
-    from train.evaluate import flat_trial
-    from train.runner import runner_for_checkpoint
+    from envs.evaluation import flat_trial
+    from envs.checkpoints import runner_for_checkpoint
 
     for name in ("policy.pt", "policy.onnx", "policy.json", "config.json", "eval.json", "curves.png"):
         assert (checkpoint.parent / name).is_file(), f"{checkpoint.parent.name} ships no {name}"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from cra_warp.terrain_window import PARK_DEPTH, TerrainWindows, WindowConfig
+from cra_warp.terrain.window import PARK_DEPTH, TerrainWindows, WindowConfig
 
 IDENTITY = [0.0, 0.0, 0.0, 1.0]
 

@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from conftest import one_line_error
+from envs import evaluation
 from train import evaluate as eval_cli
 from train import export as export_cli
 from train import play as play_cli
@@ -17,6 +18,7 @@ from train import train as train_cli
     (["--device", "tpu"], "--device"),
     (["--device", "cuda:0"], "no such CUDA device"),
     (["--variant", "magic"], "--variant"),
+    (["--method", "magic"], "--method"),
     (["--task", "moon"], "--task"),
     (["--resume", "/nonexistent/model_3.pt"], "no such file"),
     (["--init", "/nonexistent/model_3.pt"], "--init /nonexistent/model_3.pt: no such file"),
@@ -127,7 +129,7 @@ def test_export_cli(trained, tmp_path, capsys):
 def test_shipped_checkpoint_is_the_actor_and_plays_like_the_full_one(trained, tmp_path):
     """--ship: checkpoint.pt keeps the actor, iteration and run info (no critic, heads or optimizer state) and
     config.json the run's configuration; a policy rebuilt from it acts exactly as one from the full checkpoint."""
-    from train.runner import runner_for_checkpoint
+    from envs.checkpoints import runner_for_checkpoint
 
     first, _ = trained
     out = tmp_path / "ship"
@@ -161,7 +163,7 @@ def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
     assert {r["policy"] for r in records} == {str(first / "model_1.pt"), "stand"}
     assert [r["difficulty"] for r in records[:7]] == pytest.approx([0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35])
     assert all(0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["fall_rate"] <= 1.0 for r in records)
-    assert all(r["robots"] == 1 and r["success_ci95"] == pytest.approx(list(eval_cli.wilson(r["successes"], 1)))
+    assert all(r["robots"] == 1 and r["success_ci95"] == pytest.approx(list(evaluation.wilson(r["successes"], 1)))
                for r in records)
     printed = capsys.readouterr().out
     assert "stairs_ascend" in printed and "95% interval" in printed
@@ -173,7 +175,7 @@ def test_learner_bench_reads_the_progress_line(capsys):
     import types
 
     from tools.bench_learner import PROGRESS
-    from train.runner import CraRunner
+    from cra_warp.learning.runner import CraRunner
 
     fake = types.SimpleNamespace(_t0=0.0)
     CraRunner._progress(fake, {"it": 4, "env_steps_per_s": 948.2, "collect_s": 12.8, "update_s": 13.15,
@@ -261,7 +263,7 @@ def test_data_parallel_on_cpu_with_torchrun(tmp_path):
 def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, tmp_path, capsys):
     """config.json and every checkpoint hold the resolved configuration; play/eval/export rebuild from it, not from
     today's defaults; a checkpoint whose observation layout differs from today's code is refused in one line."""
-    from train.runner import runner_for_checkpoint
+    from envs.checkpoints import runner_for_checkpoint
 
     first, _ = trained
     stored = json.loads((first / "config.json").read_text())
@@ -376,7 +378,7 @@ def test_resume_keeps_the_difficulty_level(tmp_path):
     second = next(d for d in tmp_path.iterdir() if d != first)
     level = torch.load(second / "model_1.pt", weights_only=False)["infos"]["difficulty_level"]
     assert level == pytest.approx(0.35) or level == pytest.approx(0.30)
-    from train.runner import runner_for_checkpoint  # play / eval / export: the whole task, no curriculum
+    from envs.checkpoints import runner_for_checkpoint  # play / eval / export: the whole task, no curriculum
     _, env = runner_for_checkpoint(second / "model_1.pt", num_envs=2, sim="mujoco")
     assert float(env.difficulty.level) == 1.0 and not env.difficulty.active
 

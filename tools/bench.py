@@ -59,8 +59,8 @@ def stairs():
 def rough(num_envs: int):
     """The default training terrain's boxes and, per robot, a level-0 tile origin [N, 3] (round-robin columns)."""
     from cra_warp.terrain import generate_terrain
-    from cra_warp.terrain_boxes import terrain_boxes
-    from cra_warp.terrain_curriculum import TerrainCurriculum
+    from cra_warp.terrain.boxes import terrain_boxes
+    from cra_warp.terrain.curriculum import TerrainCurriculum
 
     terrain = generate_terrain()
     return terrain_boxes(terrain), TerrainCurriculum(terrain, num_envs).origins
@@ -168,7 +168,7 @@ def _maps_worker(spec: dict) -> dict:
     import torch
 
     from cra_warp.terrain import generate_terrain
-    from cra_warp.terrain_sampling import HeightMapConfig, HeightSampler, bench_height_maps
+    from cra_warp.terrain.sampling import HeightMapConfig, HeightSampler, bench_height_maps
 
     torch.set_num_threads(spec["threads"])
     sampler = HeightSampler(generate_terrain().field, spec["device"], HeightMapConfig(compile=spec["compile"]))

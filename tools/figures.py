@@ -1,4 +1,4 @@
-"""cra-figures: the paper's four figures (IV-B) from training logs, cra-eval results and a stairs rollout.
+"""cra-figures: the paper's four figures (IV-B) of training logs, cra-eval results and a stairs rollout.
 
     cra-figures --runs ours=g/ours-s1,g/ours-s2 dwl=g/dwl-s1,g/dwl-s2 --eval g/eval.json \\
                 --torque g/ours-s1/model_1500.pt --out figures/
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from cra_warp.atomic_json import write_json
 from tools.curves import parse_arm, read_scalars
-from train.cli import VARIANTS
+from envs.methods import METHODS
 
 LEVEL_TAG = "/terrain_level"
 LEG_JOINTS = ("hipPitch", "hipRoll", "kneePitch", "anklePitch")  # the paper's scatter: the major leg joints
@@ -78,7 +78,7 @@ def _per_policy(records: list[dict], key) -> dict:
         if x is not None:
             cells.setdefault((r.get("method", r["policy"]), x, r["policy"]), []).append(r["success_rate"])
     # methods in the registry's order, as the grid passes --runs: a method keeps its colour across the figures
-    rank = {m: k for k, m in enumerate(VARIANTS)}
+    rank = {m: k for k, m in enumerate(METHODS)}
     out: dict[str, dict] = {}
     for (m, x, _), rates in sorted(cells.items(), key=lambda kv: (rank.get(kv[0][0], len(rank)), kv[0])):
         out.setdefault(m, {}).setdefault(x, []).append(statistics.mean(rates))
@@ -88,7 +88,7 @@ def _per_policy(records: list[dict], key) -> dict:
 def _pooled(records: list[dict], key) -> dict:
     """{method: {x: (successes, robots)}} over every record at x of every seed; robots None when a record does
     not say how many robots it had (then no interval is drawn)."""
-    from train.evaluate import with_interval
+    from envs.evaluation import with_interval
 
     out: dict[str, dict] = {}
     for r in map(with_interval, records):
@@ -104,7 +104,7 @@ def _pooled(records: list[dict], key) -> dict:
 def _errorbars(ax, per: dict, scale: float = 1.0, pooled: dict | None = None) -> dict:
     """Mean +- std over seeds per x; where the records give robot counts, the 95% Wilson interval of every seed's
     robots together is shaded behind (how far the robot count alone lets the mean be trusted)."""
-    from train.evaluate import wilson
+    from envs.evaluation import wilson
 
     drawn = {}
     for k, (m, xs) in enumerate(per.items()):
@@ -163,14 +163,13 @@ def record_stairs(checkpoint: Path, robots: int = 5, speed: float = 0.15, sim: s
     (0: 5 cm), robots still up only: {joint: {"qd": [...], "tau": [...]}}."""
     import torch
 
-    from cra_warp.terrain_course import EvalCourseConfig
+    from cra_warp.terrain.course import EvalCourseConfig
+    from cra_warp.cli import quiet_stdout
+    from envs.checkpoints import runner_for_checkpoint
+    from envs.evaluation import evaluate
     from envs.loco_config import DomainRandConfig
-    from train.evaluate import evaluate
-    from train.runner import runner_for_checkpoint
 
     course = EvalCourseConfig(kinds=("stairs_ascend",))
-    from train.evaluate import quiet_stdout
-
     with quiet_stdout():  # rsl-rl's model dumps
         runner, env = runner_for_checkpoint(checkpoint, num_envs=course.num_levels * robots, sim=sim,
                                             terrain="eval", course=course,

@@ -23,7 +23,7 @@ import torch
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.cli import Sim, UsageError, parse_args
+from cra_warp.cli import Sim, UsageError, parse_args
 
 GROUPS = ("height_map", "foot_maps", "slope", "step")
 
@@ -108,9 +108,9 @@ def probe(data: dict[str, torch.Tensor], lam: float, seed: int) -> dict[str, dic
 
 
 def run(a: ProbeArgs) -> list[dict]:
-    from cra_warp.terrain_course import EVAL_KINDS, EvalCourseConfig
+    from cra_warp.terrain.course import EVAL_KINDS, EvalCourseConfig
     from envs.loco_config import DomainRandConfig
-    from train.runner import runner_for_checkpoint
+    from envs.checkpoints import runner_for_checkpoint
 
     course = EvalCourseConfig(kinds=EVAL_KINDS)
     num_envs = len(course.kinds) * course.num_levels * a.robots_per_level

@@ -78,11 +78,11 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--png: expected a .png file name, got {args.png.name}")
 
     from cra_warp.terrain import generate_terrain
-    from cra_warp.terrain_boxes import terrain_boxes
+    from cra_warp.terrain.boxes import terrain_boxes
 
     try:
         if args.course:
-            from cra_warp.terrain_course import EvalCourse, EvalCourseConfig
+            from cra_warp.terrain.course import EvalCourse, EvalCourseConfig
 
             c = EvalCourseConfig()
             course = EvalCourse(EvalCourseConfig(num_levels=args.levels if args.levels != d.num_levels else c.num_levels,

@@ -29,7 +29,7 @@ from typing import Literal
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.cli import UsageError, parse_args
+from cra_warp.cli import UsageError, parse_args
 
 ROOT = Path(__file__).resolve().parent.parent / "robots" / "adam_lite" / "campaigns"
 # cra-train arguments that belong to one start of a run, not to the run: resume sets its own.

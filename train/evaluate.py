@@ -5,7 +5,7 @@ or the flat-ground walking trial.
     cra-eval a/model_120.pt b/model_120.pt --agent-stand --speeds 0.3 0.6 --json eval.json
     cra-eval runs/<run>/model_900.pt --trial flat --robots 200 --seconds 20   # walking on flat ground
 
-Every (kind, level) of cra_warp.terrain_course gets --robots-per-level robots at its start, facing its target
+Every (kind, level) of cra_warp.terrain.course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
 speed with its heading steered at the target (through its yaw-rate command, also for a policy trained without
 heading mode). A robot succeeds when its base comes within the target radius before it ever falls; a fallen robot
@@ -24,7 +24,7 @@ trial (its gait's sway within a step averages out).
 The paper's protocol (IV-B), one option: --protocol paper runs (1) the speed sweep, 200 robots per level of every
 kind at each of --speeds (default 0.15 ... 1.0 m/s), and (2) the terrain ablation, 25 robots per level of the
 stairs and slope ascents at 0.15 m/s (--robots-per-level and --ablation-robots scale both down for a CPU). Records
-name the method (the checkpoint's variant) and its training seed; with several seeds of a method, the table and
+name the method (the run info's "variant" key) and its training seed; with several seeds of a method, the table and
 --csv also give each cell's mean and std over the seeds.
 """
 
@@ -40,10 +40,9 @@ import torch
 from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
-from train.cli import Sim, UsageError, check_device, check_sim, parse_args, world_config
-
-STAND = "stand"  # the name of the scripted-stand floor in reports
-
+from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args, quiet_stdout
+from envs.evaluation import (STAND, course_records, evaluate, flat_trial, method_of, seed_means, with_interval,
+                             write_csv)
 
 @dataclass
 class EvalArgs:
@@ -74,187 +73,21 @@ PAPER_ABLATION = {"speed": 0.15, "kinds": ("stairs_ascend", "slope_ascend")}
 DEFAULT_SPEEDS, DEFAULT_ROBOTS = (0.5,), 10          # without the protocol
 
 
-def wilson(successes: float, n: int, z: float = 1.96) -> tuple[float, float] | None:
-    """The 95% Wilson score interval of a success rate of ``successes`` out of ``n`` robots (None for n = 0).
-    Unlike rate +- 1.96 sqrt(p(1-p)/n) it stays within [0, 1] and is not empty at 0 or n: 3 of 10 reads
-    0.11-0.60, so two course cells of 10 robots reading 30% and 10% do not differ by more than chance."""
-    if not n:
-        return None
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
-def with_interval(record: dict) -> dict:
-    """``record`` with its success count and 95% Wilson interval (from success_rate and robots; records written
-    before the interval was recorded get it here too)."""
-    n = record.get("robots")
-    if not n or record.get("success_rate") is None:
-        return record
-    k = round(record["success_rate"] * n)
-    return {**record, "successes": k, "success_ci95": list(wilson(k, n))}
-
-
-class Tally:
-    """Per-robot outcome of one deployment: a robot succeeds at the first step its base is within the target
-    radius, provided it has not fallen before; falls after success do not undo it. While a robot is on its way
-    (trial running, neither succeeded nor fallen) it also sums how it walks: GAIT's quantities, per step."""
-
-    GAIT = ("gait_rate", "forward_speed", "swing_height", "pitch_deg")
-
-    def __init__(self, num: int, device):
-        self.fell = torch.zeros(num, dtype=torch.bool, device=device)
-        self.succeeded = torch.zeros(num, dtype=torch.bool, device=device)
-        self.gait_sums = torch.zeros(num, len(self.GAIT), device=device)
-        self.gait_steps = torch.zeros(num, device=device)
-
-    def update(self, reached: torch.Tensor, fell: torch.Tensor, active: torch.Tensor):
-        """reached / fell [n] bool this step; only ``active`` robots (trial still running) count."""
-        self.succeeded |= reached & ~self.fell & active
-        self.fell |= fell & active & ~self.succeeded
-
-    def walk(self, env, active: torch.Tensor):
-        """Sum this step's gait of the ``active`` robots still on their way: the clock's rate (x the nominal
-        1 / T_cycle: what the policy chose, 1 for a fixed cycle), forward speed [m/s, base frame], mean sole height
-        of the feet in the air [m] and pelvis pitch [deg, > 0 leaning forward]."""
-        on = active & ~self.succeeded & ~self.fell
-        g = env.projected_gravity
-        swing = ~env.contact
-        rate = ((1.0 + env.cfg.gait.alpha * env.clock.deltas[:, 0]).clamp(min=0.0) if env.cfg.variant == "adaptive"
-                else torch.ones_like(g[:, 0]))
-        now = torch.stack([rate, env.base_lin_vel[:, 0],
-                           (env.sole_height * swing).sum(-1) / swing.sum(-1).clamp(min=1),
-                           torch.rad2deg(torch.atan2(g[:, 0], -g[:, 2]))], -1)
-        self.gait_sums += now * on.unsqueeze(-1)
-        self.gait_steps += on
-
-    def gait(self, select: torch.Tensor, uses_clock: bool = True) -> dict[str, float | None]:
-        """Means over the ``select``ed robots [n] bool of each robot's mean gait (robots never on their way left
-        out); the rate is None without a clock."""
-        seen = select & (self.gait_steps > 0)
-        if not seen.any():
-            return dict.fromkeys(self.GAIT)
-        means = (self.gait_sums[seen] / self.gait_steps[seen].unsqueeze(-1)).mean(0).tolist()
-        out = dict(zip(self.GAIT, means))
-        if not uses_clock:
-            out["gait_rate"] = None
-        return out
-
-
-def trial_steps(dep, speed: float, dt: float) -> torch.Tensor:
-    """[n] steps each robot's trial lasts: twice its start-target distance at ``speed``, plus 2 s."""
-    dist = (dep.target[:, :2] - dep.start[:, :2]).norm(dim=-1)
-    return ((2 * dist / speed + 2.0) / dt).ceil().long()
-
-
-def evaluate(env, act, speed: float) -> Tally:
-    """Run one deployment (env on the "eval" terrain) until every robot succeeded, fell or ended its trial.
-    ``act(obs, dones)`` returns actions and resets whatever recurrent state it keeps for the robots in ``dones``."""
-    dep = env.ground.deployment
-    steps = trial_steps(dep, speed, env.dt)
-    tally = Tally(env.num_envs, env.device)
-    forward = torch.tensor([speed, 0.0], device=env.device).expand(env.num_envs, 2)
-    env.reset_idx(torch.arange(env.num_envs, device=env.device))   # every robot at its start, at rest
-    dones = torch.ones(env.num_envs, dtype=torch.bool, device=env.device)  # fresh recurrent state for all
-    with torch.inference_mode():
-        for k in range(int(steps.max())):
-            # observed once at the start; later the step's own observation shows the steered command
-            env.hold_commands(forward, dep.heading_to_target(env.root_pos), refresh=k == 0, steer=True)
-            _, _, d, extras = env.step(act(env.get_observations(), dones))
-            dones = d.bool()
-            fell = dones & ~extras["time_outs"]
-            # a fallen robot was respawned inside step(): its position no longer tells where it got to
-            tally.walk(env, (k < steps) & ~dones)  # before the update: the step that ends a trial counts
-            tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps)
-            # a success or a fall is final: once every robot has one or is past its trial, the rest changes nothing
-            if k % 25 == 0 and not ((k < steps) & ~tally.succeeded & ~tally.fell).any():
-                break
-    return tally
-
-
-def flat_trial(env, act, speed: float, seconds: float, lateral: float = 0.0, yaw_rate: float = 0.0) -> dict:
-    """Every robot commanded (speed, lateral) on flat ground for ``seconds``, its heading held at 0, or with
-    ``yaw_rate`` turning at that rate (the training's heading controller, steered to a heading ahead of the robot's
-    own). Fall rate, and after the first 2 s over the robots still up: the mean tracking error of each commanded
-    quantity (v_x, v_y in the base frame, yaw rate against the command in force), the same for each robot's average
-    over the trial, then averaged over robots (the gait's sway within a step averages out of it), that average
-    with its sign (offset: actual - command, e.g. < 0 for a robot slower than told), and the
-    gait: touchdowns per second (both feet together) and the share of steps on one foot (a robot that stands still
-    has neither)."""
-    n, dev = env.num_envs, env.device
-    fell = torch.zeros(n, dtype=torch.bool, device=dev)
-    err, count = torch.zeros(3, device=dev), torch.zeros((), device=dev)
-    signed, up_steps = torch.zeros(n, 3, device=dev), torch.zeros(n, device=dev)
-    touchdowns, single = torch.zeros((), device=dev), torch.zeros((), device=dev)
-    lin = torch.tensor([speed, lateral], device=dev).expand(n, 2)
-    heading = torch.zeros(n, device=dev)
-    env.reset_idx(torch.arange(n, device=dev))
-    dones = torch.ones(n, dtype=torch.bool, device=dev)
-    turn_by_heading = bool(yaw_rate) and env.cfg.commands.heading_mode  # else the yaw rate is commanded as it is
-    with torch.inference_mode():
-        for k in range(round(seconds / env.dt)):
-            if turn_by_heading:  # a heading ahead of the robot's own, seen in this step's observation
-                heading = _turning_heading(env, yaw_rate)
-            env.hold_commands(lin, heading, refresh=k == 0 or turn_by_heading, yaw_rate=yaw_rate)
-            commanded = env.commands[:, :3].clone()   # what this step's action was chosen for
-            _, _, d, extras = env.step(act(env.get_observations(), dones))
-            dones = d.bool()
-            fell |= dones & ~extras["time_outs"]
-            if (k + 1) * env.dt > 2.0:
-                up = ~fell & ~dones  # a robot reset in this step shows its new episode's first contact
-                actual = torch.stack([env.base_lin_vel[:, 0], env.base_lin_vel[:, 1], env.base_ang_vel[:, 2]], -1)
-                err += ((actual - commanded).abs() * up[:, None]).sum(0)
-                signed += (actual - commanded) * up[:, None]
-                up_steps += up
-                touchdowns += (env.first_contact.sum(-1) * up).sum()
-                single += ((env.contact.sum(-1) == 1) & up).sum()
-                count += up.sum()
-    up_s, ok = count * env.dt, count > 0
-    counted = up_steps > 0
-    per_robot = signed[counted] / up_steps[counted, None]
-    mean_err = per_robot.abs().mean(0).tolist() if counted.any() else [None] * 3
-    offset = per_robot.mean(0).tolist() if counted.any() else [None] * 3   # signed: which way the robots miss
-    return {"lateral": lateral, "yaw_rate": yaw_rate,
-            "fall_rate": float(fell.float().mean()), "success_rate": float(1.0 - fell.float().mean()),
-            "tracking_error": float(err[0] / count) if ok else None,
-            "tracking_error_y": float(err[1] / count) if ok else None,
-            "tracking_error_yaw": float(err[2] / count) if ok else None,
-            "mean_error": mean_err[0], "mean_error_y": mean_err[1], "mean_error_yaw": mean_err[2],
-            "offset": offset[0], "offset_y": offset[1], "offset_yaw": offset[2],
-            "touchdowns_per_s": float(touchdowns / up_s) if ok else None,
-            "single_support": float(single / count) if ok else None}
-
-
-def _turning_heading(env, yaw_rate: float) -> torch.Tensor:
-    """A heading the training's P-controller (rate = gain x heading error, clamped) turns towards at ``yaw_rate``."""
-    from cra_warp.rotations import yaw
-
-    return yaw(env.world.root_quat) + yaw_rate / env.cfg.commands.heading_gain
-
-
-def quiet_stdout():
-    """stdout of a block dropped (what a user reads is the table); exceptions still propagate."""
-    import contextlib
-    import io
-
-    return contextlib.redirect_stdout(io.StringIO())
-
-
 def _policies(a: EvalArgs):
     """(name, factory) pairs; factory(num_envs, overrides) -> (env, act)."""
+    from cra_warp.sim import WorldConfig
     from envs.loco_config import LocoConfig
     from envs.locomotion import LocoEnv
 
     def stand(num_envs, overrides):
         with quiet_stdout():
             env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed,
-                                     world=world_config(a.sim or "newton"), **overrides))
+                                     world=WorldConfig(backend=a.sim or "newton"), **overrides))
         return env, lambda obs, dones: env.stand_actions()
 
     def checkpoint(path):
         def make(num_envs, overrides):
-            from train.runner import runner_for_checkpoint
+            from envs.checkpoints import runner_for_checkpoint
 
             with quiet_stdout():  # rsl-rl's model dumps and the backends' set-up notes, once per policy and speed
                 runner, env = runner_for_checkpoint(path, num_envs=num_envs, device=a.device, sim=a.sim,
@@ -271,16 +104,6 @@ def _policies(a: EvalArgs):
     return out + [(STAND, stand)] if a.agent_stand else out
 
 
-def method_of(name: str) -> dict:
-    """{"method", "train_seed"} of a policy in the records: the checkpoint's variant and seed (the stand: itself)."""
-    if name == STAND:
-        return {"method": STAND, "train_seed": None}
-    from cra_warp.learning.checkpoint import read_checkpoint
-
-    info = read_checkpoint(name).get("infos") or {}
-    return {"method": info.get("variant", "ours"), "train_seed": info.get("seed")}
-
-
 def run_protocol(a: EvalArgs) -> list[dict]:
     """The paper's protocol: the speed sweep over every kind and level, then the 0.15 m/s terrain ablation."""
     import dataclasses
@@ -292,62 +115,6 @@ def run_protocol(a: EvalArgs) -> list[dict]:
                                    kinds=tuple(k for k in ab["kinds"] if not a.kinds or k in a.kinds) or ab["kinds"])
     return ([{**r, "protocol": "speed_sweep"} for r in run(sweep)]
             + [{**r, "protocol": "ablation"} for r in run(ablation)])
-
-
-def seed_means(records: list[dict]) -> list[dict]:
-    """Per method and cell (protocol, trial, speed, kind, level): mean and std of the success rate over the
-    method's checkpoints (its seeds; std 0 for one)."""
-    groups: dict[tuple, list[dict]] = {}
-    for r in records:
-        key = (r.get("method"), r.get("protocol"), r.get("trial", "course"), r["speed"], r.get("lateral"),
-               r.get("yaw_rate"), r.get("kind"), r.get("level"))
-        groups.setdefault(key, []).append(r)
-    out = []
-    for (method, protocol, trial, speed, lateral, yaw_rate, kind, level), rs in groups.items():
-        v = torch.tensor([r["success_rate"] for r in rs], dtype=torch.float64)
-        pooled = [with_interval(r) for r in rs]
-        robots = sum(r.get("robots") or 0 for r in pooled) if all(r.get("robots") for r in pooled) else None
-        ci = wilson(sum(r["successes"] for r in pooled), robots) if robots else None
-        out.append({"method": method, "protocol": protocol, "trial": trial, "speed": speed, "lateral": lateral,
-                    "yaw_rate": yaw_rate, "kind": kind,
-                    "level": level, "difficulty": rs[0].get("difficulty"), "seeds": len(rs),
-                    "success_mean": float(v.mean()), "success_std": float(v.std(unbiased=False)),
-                    # every seed's robots together: how sure the mean is from the robot count alone
-                    "robots": robots, "success_ci95": list(ci) if ci else None})
-    return out
-
-
-def method_summary(records: list[dict]) -> dict[str, dict]:
-    """Per method, over its speed-sweep records (every speed, kind and level): each checkpoint's (seed's) mean
-    success and fall rate, and their mean and std over the seeds - the one-line-per-method table of a grid."""
-    per: dict[str, dict[str, list[dict]]] = {}
-    for r in records:
-        if r.get("protocol", "speed_sweep") == "speed_sweep" and "kind" in r:
-            per.setdefault(r.get("method") or r["policy"], {}).setdefault(r["policy"], []).append(r)
-    out = {}
-    for method, policies in per.items():
-        row = {"seeds": len(policies)}
-        for rate in ("success_rate", "fall_rate"):
-            v = torch.tensor([sum(r[rate] for r in rs) / len(rs) for rs in policies.values()], dtype=torch.float64)
-            row[rate] = {"per_seed": v.tolist(), "mean": float(v.mean()), "std": float(v.std(unbiased=False))}
-        out[method] = row
-    return out
-
-
-def write_csv(path: Path, records: list[dict]) -> None:
-    """The records, then the seed means, as one CSV (a "table" column tells them apart); written atomically."""
-    import csv
-    import io
-
-    from cra_warp.atomic_json import write_text
-
-    rows = [{"table": "record", **r} for r in records] + [{"table": "seed_mean", **m} for m in seed_means(records)]
-    cols = list(dict.fromkeys(k for r in rows for k in r))
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=cols)
-    w.writeheader()
-    w.writerows(rows)
-    write_text(path, buf.getvalue())
 
 
 def run(a: EvalArgs) -> list[dict]:
@@ -362,7 +129,7 @@ def run(a: EvalArgs) -> list[dict]:
 
 def _run(a: EvalArgs) -> list[dict]:
     from cra_warp.host_memory import keep_freed_memory
-    from cra_warp.terrain_course import EVAL_KINDS, EvalCourseConfig
+    from cra_warp.terrain.course import EVAL_KINDS, EvalCourseConfig
     from envs.loco_config import DomainRandConfig
 
     keep_freed_memory()
@@ -390,18 +157,7 @@ def _run(a: EvalArgs) -> list[dict]:
             overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
                              episode_length_s=1e6)  # no time-outs: the trial clock is the evaluator's
             env, act = make(num_envs, overrides)
-            tally = evaluate(env, act, speed)
-            c, dep = env.ground.course, env.ground.deployment
-            success = c.success_rate(dep, tally.succeeded)
-            falls = c.success_rate(dep, tally.fell)
-            for k, kind in enumerate(c.kinds):
-                for lv in range(c.cfg.num_levels):
-                    cell = (dep.kind == k) & (dep.level == lv)
-                    records.append(with_interval({
-                        "policy": name, "speed": speed, "kind": kind, "level": lv,
-                        "difficulty": float(c.difficulty[k, lv]), "robots": a.robots_per_level,
-                        "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv]),
-                        **tally.gait(cell, env.cfg.uses_clock)}))
+            records += course_records(env, evaluate(env, act, speed), name, speed, a.robots_per_level)
     return records
 
 
@@ -471,7 +227,7 @@ def _pct(ci) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     from cra_warp.learning.checkpoint import CheckpointError
-    from cra_warp.terrain_course import EVAL_KINDS
+    from cra_warp.terrain.course import EVAL_KINDS
 
     try:
         a = parse_args(EvalArgs, argv, __doc__)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from tyro.conf import Positional
 
-from train.cli import UsageError, parse_args
+from cra_warp.cli import UsageError, parse_args
 
 
 def deploy_metadata(env) -> dict:
@@ -163,7 +163,7 @@ class ExportArgs:
 def main(argv: list[str] | None = None) -> int:
     from cra_warp.learning.checkpoint import CheckpointError
 
-    from train.runner import runner_for_checkpoint
+    from envs.checkpoints import runner_for_checkpoint
 
     try:
         a = parse_args(ExportArgs, argv, __doc__)

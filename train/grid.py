@@ -35,7 +35,8 @@ from pathlib import Path
 from typing import Literal
 
 from envs.recipes import DEFAULT_RECIPE, RECIPES
-from train.cli import VARIANTS, UsageError, Variant, parse_args
+from cra_warp.cli import UsageError, parse_args
+from envs.methods import METHODS, Method
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
 # cpu: what a 2-core machine runs within one sitting: 21 runs x 60 iterations of 128 robots on the MuJoCo backend, two
@@ -57,7 +58,7 @@ FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_ve
 @dataclass
 class GridArgs:
     scale: str = "cpu"                                  # cpu | gpu (see SCALES)
-    methods: tuple[Variant, ...] = tuple(VARIANTS)      # registered variants (cra-train --variant)
+    methods: tuple[Method, ...] = tuple(METHODS)        # registered methods (cra-train --method)
     recipe: RecipeName = DEFAULT_RECIPE                 # cra-train --recipe of every run (envs/recipes.py)
     seeds: tuple[int, ...] = (1, 2, 3)
     out: Path = Path("grid")
@@ -90,8 +91,7 @@ def unusable(a: GridArgs, method: str) -> dict[str, object]:
     from envs.loco_config import LocoConfig
     from envs.recipes import resolve
 
-    uses_clock = LocoConfig(variant=VARIANTS[method][0]).uses_clock
-    _, dropped = resolve(a.recipe, "rough", uses_clock=uses_clock)
+    _, dropped = resolve(a.recipe, "rough", uses_clock=METHODS[method].uses_clock)
     full, _ = resolve(a.recipe, "rough")
     base = to_data(LocoConfig())
     defaults = {}
@@ -105,7 +105,7 @@ def unusable(a: GridArgs, method: str) -> dict[str, object]:
 
 
 def labels(a: GridArgs) -> dict[str, str]:
-    """Every run label of the grid -> the variant it trains: the methods, and each method's fair pair."""
+    """Every run label of the grid -> the method it trains: the methods, and each method's fair pair."""
     out = {m: m for m in a.methods}
     if a.fair_pairs:
         out |= {PAIR + m: "ours" for m in a.methods if unusable(a, m)}
@@ -115,13 +115,12 @@ def labels(a: GridArgs) -> dict[str, str]:
 def recipe_of(a: GridArgs, label: str) -> str:
     """The recipe a run label trains with, in words: the name, and what of it the method cannot use (or, for a
     fair pair, leaves out)."""
-    from envs.loco_config import LocoConfig
     from envs.recipes import describe
 
     if label.startswith(PAIR):
         method = label[len(PAIR):]
         return f"{a.recipe} without {', '.join(unusable(a, method))} (the fair pair of {method})"
-    return describe(a.recipe, uses_clock=LocoConfig(variant=VARIANTS[label][0]).uses_clock)
+    return describe(a.recipe, uses_clock=METHODS[label].uses_clock)
 
 
 def plan(a: GridArgs) -> list[dict]:
@@ -129,7 +128,7 @@ def plan(a: GridArgs) -> list[dict]:
     s = SCALES[a.scale]
     total = a.iterations or s["iterations"]
     jobs = []
-    for m, variant in labels(a).items():
+    for m, method in labels(a).items():
         left_out = unusable(a, m[len(PAIR):]) if m.startswith(PAIR) else {}
         for seed in a.seeds:
             run_dir = a.out / "train" / f"{m}-s{seed}"
@@ -137,7 +136,7 @@ def plan(a: GridArgs) -> list[dict]:
             done_it = newest[0] + 1 if newest else 0
             cmd = None
             if done_it < total:
-                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--variant", variant,
+                cmd = [sys.executable, "-m", "train.train", "--task", "rough", "--method", method,
                        "--recipe", a.recipe, "--seed", str(seed),
                        "--num-envs", str(a.num_envs or s["num_envs"]), "--sim", s["sim"], "--device", s["device"],
                        "--max-iterations", str(total - done_it), "--log-dir", str(run_dir), "--quiet",
@@ -152,7 +151,7 @@ def plan(a: GridArgs) -> list[dict]:
 
 
 def relabel(path: Path, label: str) -> None:
-    """A fair pair's evaluation records name the checkpoint's variant (ours): name them by the run's label instead,
+    """A fair pair's evaluation records name the checkpoint's method (ours): name them by the run's label instead,
     so the table and the figures keep it apart from ours."""
     from cra_warp.atomic_json import write_json
 
@@ -227,8 +226,7 @@ def train_and_evaluate(a: GridArgs, jobs: list[dict], log) -> list[Path]:
 
 def run(a: GridArgs, log=print) -> list[dict]:
     from cra_warp.atomic_json import write_json
-    from tools import figures
-    from train.evaluate import method_summary, seed_means, write_csv
+    from envs.evaluation import method_summary, seed_means, write_csv
 
     jobs = plan(a)
     recipes = {m: recipe_of(a, m) for m in labels(a)}
@@ -252,8 +250,11 @@ def run(a: GridArgs, log=print) -> list[dict]:
         ours = next((j for j in jobs if j["method"] == "ours"), jobs[0])
         fig_args = ["--runs", *runs, "--eval", *map(str, evals), "--out", str(a.out / "figures"),
                     "--torque", str(_newest(ours["run_dir"])[1]), "--sim", SCALES[a.scale]["sim"]]
-        if figures.main(fig_args) != 0:
-            raise UsageError(f"cra-figures {' '.join(fig_args)} failed")
+        # cra-figures as its command, like the trainings and evaluations (the command packages stay apart)
+        done = subprocess.run([sys.executable, "-m", "tools.figures", *fig_args], capture_output=True, text=True)
+        if done.returncode != 0:
+            raise UsageError(f"cra-figures {' '.join(fig_args)} failed: {done.stderr.strip()[-300:]}")
+        log(done.stdout.strip())
     # the table is cheap: always rewritten, so a grid drawn by an older version gains its newer columns
     summary = method_summary(records)
     write_csv(a.out / "table.csv", records)
@@ -274,9 +275,9 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--recipe must be one of {', '.join(RECIPES)}, got {a.recipe!r}")
         if a.scale not in SCALES:
             raise UsageError(f"--scale must be one of {', '.join(SCALES)}, got {a.scale!r}")
-        bad = [m for m in a.methods if m not in VARIANTS]
+        bad = [m for m in a.methods if m not in METHODS]
         if bad or not a.methods or not a.seeds:
-            raise UsageError(f"--methods must be among {', '.join(VARIANTS)} and --seeds non-empty, got "
+            raise UsageError(f"--methods must be among {', '.join(METHODS)} and --seeds non-empty, got "
                              f"{', '.join(bad) or 'none'}")
         for flag, v in (("--iterations", a.iterations), ("--num-envs", a.num_envs), ("--parallel", a.parallel)):
             if v is not None and v < 1:

@@ -15,12 +15,14 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
+import tyro
 from tyro.conf import Positional
 
+from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args
 from cra_warp.video import RolloutVideo, check_gif_path
-from train.cli import VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args, world_config
+from envs.methods import METHODS, Method, Task
 
 
 @dataclass
@@ -28,7 +30,8 @@ class PlayArgs:
     checkpoint: Positional[Path | None] = None  # a cra-train checkpoint (model_<it>.pt); for --agent policy
     agent: Literal["policy", "stand", "zero", "random"] = "policy"
     task: Task | None = None           # default: the checkpoint's task (flat for stand/zero/random)
-    variant: Variant = "ours"          # stand/zero/random agents only: a policy brings its own
+    # the method, for its clock mode (--method or --variant): stand/zero/random agents only; a policy brings its own
+    variant: Annotated[Method, tyro.conf.arg(aliases=("--method",))] = "ours"
     num_envs: int = 16
     steps: int = 500                   # env steps (0.02 s each)
     device: str = "cpu"
@@ -57,6 +60,7 @@ def run(a: PlayArgs) -> dict:
     import torch
 
     from cra_warp.host_memory import keep_freed_memory
+    from cra_warp.sim import WorldConfig
     from envs.loco_config import DomainRandConfig, LocoConfig
     from envs.locomotion import LocoEnv
 
@@ -66,8 +70,8 @@ def run(a: PlayArgs) -> dict:
         overrides["randomization"] = DomainRandConfig(enabled=False)
     # the viewer draws static shapes once: every world holds the whole course, not a window
     whole_course = a.usd is not None
-    if a.agent == "policy":  # the env the checkpoint was trained in (variant, task from its run info)
-        from train.runner import runner_for_checkpoint
+    if a.agent == "policy":  # the env the checkpoint was trained in (method, task from its stored config)
+        from envs.checkpoints import runner_for_checkpoint
 
         sim = "newton" if whole_course else a.sim  # USD recording draws Newton's state
         runner, env = runner_for_checkpoint(a.checkpoint, num_envs=a.num_envs, device=a.device, sim=sim,
@@ -80,9 +84,9 @@ def run(a: PlayArgs) -> dict:
         agent.reset = policy.reset
     else:
         overrides.setdefault("terrain", "flat")
-        world = world_config(a.sim or "newton", **({"terrain_window": None} if whole_course else {}))
-        env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=VARIANTS[a.variant][0], seed=a.seed,
-                                 world=world, **overrides))
+        world = WorldConfig(backend=a.sim or "newton", **({"terrain_window": None} if whole_course else {}))
+        env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=METHODS[a.variant].clock_mode,
+                                 seed=a.seed, world=world, **overrides))
         agent = make_agent(a, env)
     viewer = None
     if a.usd is not None:

@@ -30,7 +30,7 @@ from tyro.conf import Positional
 from cra_warp import video  # first: it sets MUJOCO_GL before mujoco is imported
 from cra_warp.atomic_json import write_json
 from cra_warp.deploy import DeployError, DeployPolicy, load_export, pd_torque
-from train.cli import UsageError, parse_args
+from cra_warp.cli import UsageError, parse_args
 
 TERRAINS = ("flat", "stairs", "slope")
 # Held joints (not driven by the policy; welded in training) get this PD on the robot: soft, they carry only a hand.

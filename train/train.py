@@ -9,17 +9,15 @@
     cra-train --task rough --init runs/<flat run>/model_2800.pt      # a new run from a flat walker's networks
     torchrun --nproc-per-node 2 -m train.train --num-envs 128        # data parallel: gloo on CPU, NCCL on CUDA
 
-Variants (paper IV-A): ours (same-step contrast, adaptive clock), sequential (contrast with the next step),
-no_contrast, fixed_cycle, clock_free. Recipes (envs/recipes.py): walk (the default: what the shipped walkers trained
+Methods (paper IV-A; envs/methods.py): ours (same-step contrast, adaptive clock), sequential (contrast with the next
+step), no_contrast, fixed_cycle, clock_free, and the baselines dreamwaq and dwl. Recipes (envs/recipes.py): walk (the default: what the shipped walkers trained
 with) and paper; a recipe's overrides come before --override's. Writes TensorBoard logs, checkpoints and, at the
 end, the exported policy (TorchScript, ONNX, deploy JSON) to the run directory.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 import math
 import os
 import random
@@ -28,12 +26,14 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from typing import Literal
+from typing import Annotated, Literal
+
+import tyro
 
 from cra_warp.atomic_json import write_json
 from envs.recipes import DEFAULT_RECIPE, RECIPES
-from train.cli import (TASKS, VARIANTS, Sim, Task, UsageError, Variant, check_device, check_sim, parse_args,
-                       world_config)
+from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args, quiet_stdout
+from envs.methods import METHODS, TASKS, Method, Task
 
 RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices --help lists
 
@@ -41,7 +41,8 @@ RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices 
 @dataclass
 class TrainArgs:
     task: Task = "flat"                # rough: the terrain curriculum
-    variant: Variant = "ours"
+    # the method (envs/methods.py: clock mode, contrast pairing, actor); --method and --variant (stored runs' name) alike
+    variant: Annotated[Method, tyro.conf.arg(aliases=("--method",))] = "ours"
     # named overrides (envs/recipes.py), applied before --override: walk = what the shipped walkers trained with,
     # paper = Table I and the paper's clock as published. Unset: walk for a new run (and --init), the checkpoint's
     # own with --resume (paper for one written before recipes: it ran on the dataclass defaults, which are paper's)
@@ -80,8 +81,8 @@ class TrainArgs:
 def validate(a: TrainArgs) -> None:
     if a.task not in TASKS:
         raise UsageError(f"--task must be one of {', '.join(TASKS)}, got {a.task!r}")
-    if a.variant not in VARIANTS:
-        raise UsageError(f"--variant must be one of {', '.join(VARIANTS)}, got {a.variant!r}")
+    if a.variant not in METHODS:
+        raise UsageError(f"--method must be one of {', '.join(METHODS)}, got {a.variant!r}")
     if a.recipe is not None and a.recipe not in RECIPES:
         raise UsageError(f"--recipe must be one of {', '.join(RECIPES)}, got {a.recipe!r}")
     if a.num_envs < 1:
@@ -173,39 +174,20 @@ def run_config(a: TrainArgs, env, env_cfg, learner, recipe: dict | None = None) 
             "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
 
 
-def env_config(a: TrainArgs, threads: int = 1, rank: int = 0):
-    """The env config a run trains with: the CLI's choices, then the recipe's overrides (minus what the method
-    cannot use), then --override's. Returns (LocoConfig, learner overrides without "learner.", recipe record)."""
-    from cra_warp.config_io import with_overrides
-    from envs.loco_config import VARIANTS as ENV_VARIANTS, DifficultyConfig, LocoConfig
-    from envs.recipes import resolve
+def configs(a: TrainArgs, threads: int = 1, rank: int = 0):
+    """The run's (LocoConfig, LearnerConfig, recipe record): envs.methods.build_configs of the CLI's choices, the
+    recipe's overrides (minus what the method cannot use), then --override's."""
+    from cra_warp.learning.config import bf16_supported
+    from envs.methods import build_configs
 
-    env_variant = VARIANTS[a.variant][0]
-    assert env_variant in ENV_VARIANTS
-    env_cfg = LocoConfig(num_envs=a.num_envs, device=a.device, variant=env_variant, terrain=a.task,
-                         seed=a.seed + rank, world=world_config(a.sim, threads=threads),
-                         difficulty=DifficultyConfig(commands=a.curriculum, randomization=a.curriculum))
-    from_recipe, dropped = resolve(a.recipe or DEFAULT_RECIPE, a.task, uses_clock=env_cfg.uses_clock)
-    if not a.curriculum:  # --no-curriculum means the whole task from the start, whatever the recipe's curriculum
-        from_recipe = {k: v for k, v in from_recipe.items() if not k.startswith("difficulty.")}
-    overrides = {**from_recipe, **parse_overrides(a.override)}
-    env_over = {k: v for k, v in overrides.items() if not k.startswith("learner.")}
-    learner_over = {k[len("learner."):]: v for k, v in overrides.items() if k.startswith("learner.")}
-    if env_over:
-        try:
-            env_cfg = with_overrides(env_cfg, env_over)
-        except (ValueError, TypeError) as e:
-            raise UsageError(f"--override: {e}") from e
-    return env_cfg, learner_over, {"name": a.recipe or DEFAULT_RECIPE, "overrides": from_recipe,
-                                   "not_used": dropped}
-
-
-@contextlib.contextmanager
-def quiet_stdout():
-    """stdout of the block dropped: rsl-rl's model dumps, Newton's set-up notes (what a user reads is the progress
-    lines and the end); an exception still propagates."""
-    with contextlib.redirect_stdout(io.StringIO()):
-        yield
+    try:
+        return build_configs(a.variant, a.task, recipe=a.recipe, overrides=parse_overrides(a.override),
+                             num_envs=a.num_envs, device=a.device, sim=a.sim, seed=a.seed + rank, threads=threads,
+                             curriculum=a.curriculum, contrast_weight=a.contrast_weight, contrast_tau=a.contrast_tau,
+                             epochs=a.epochs, mini_batches=a.mini_batches, save_interval=a.save_interval,
+                             mixed_precision=a.bf16 and bf16_supported(a.device))
+    except ValueError as e:
+        raise UsageError(str(e)) from e
 
 
 def newest_checkpoint(folder: Path) -> Path | None:
@@ -223,12 +205,12 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
     from cra_warp.config_io import to_data
     from cra_warp.learning.checkpoint import read_checkpoint
     from cra_warp.learning.config import stored_target_actor_obs
-    from train.runner import _check_against_today
+    from envs.checkpoints import check_against_today
 
     stored = (read_checkpoint(path).get("infos") or {}).get("config")
     if stored is None:
         return
-    _check_against_today(path, stored, env)
+    check_against_today(path, stored, env)
     target = stored_target_actor_obs(stored.get("learner", {}))
     if not fork and learner.contrast.variant != "none" and target != learner.contrast.target_actor_obs:
         raise UsageError(f"{path} was trained with the contrast target {'with' if target else 'without'} the actor "
@@ -288,13 +270,14 @@ def run(a: TrainArgs):
     """Train as the arguments say; returns (run directory, runner)."""
     import torch
 
-    from cra_warp.config_io import to_data, with_overrides
+    from cra_warp.config_io import to_data
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.learning.checkpoint import load_checkpoint, read_checkpoint
-    from cra_warp.learning.config import LearnerConfig, bf16_supported, runner_cfg
+    from cra_warp.learning.config import runner_cfg
     from envs.locomotion import LocoEnv
+    from envs.methods import bind_learner
     from train.export import export_run, third_party_quiet
-    from train.runner import CraRunner
+    from envs.checkpoints import make_runner
 
     keep_freed_memory()  # batched CPU tensors page-fault on every allocation otherwise (see host_memory)
     if a.recipe is None:  # run() called without validate(): the same choice
@@ -307,23 +290,10 @@ def run(a: TrainArgs):
     # the learner's torch threads and the MuJoCo backend's batch threads
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     threads = max(1, cores // int(os.getenv("WORLD_SIZE", "1")))
-    _, contrast, actor_kind = VARIANTS[a.variant]
-    env_cfg, learner_over, recipe = env_config(a, threads=threads, rank=rank)
+    env_cfg, learner, recipe = configs(a, threads=threads, rank=rank)
     with quiet_stdout():  # the backends' set-up notes
         env = LocoEnv(env_cfg)
-    learner = LearnerConfig(save_interval=a.save_interval, run_name=f"{a.task}_{a.variant}")
-    learner.contrast = dataclasses.replace(learner.contrast, variant=contrast, weight=a.contrast_weight,
-                                           tau=a.contrast_tau)
-    learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=a.epochs, num_mini_batches=a.mini_batches,
-                                      use_mixed_precision=a.bf16 and bf16_supported(a.device))
-    learner.actor = dataclasses.replace(learner.actor, kind=actor_kind)
-    learner.privileged_slices = {k: (env.priv_layout[name].start, env.priv_layout[name].stop)
-                                 for k, name in (("velocity", "base_lin_vel"), ("observation", "actor"))}
-    if learner_over:
-        try:
-            learner = with_overrides(learner, learner_over)
-        except (ValueError, TypeError) as e:
-            raise UsageError(f"--override: learner.{e}") from e
+    bind_learner(learner, env)
     lr, warmup = learner.fork_learning_rate, learner.fork_critic_warmup
     if not (math.isfinite(lr) and lr > 0) or min(warmup, learner.critic_warmup) < 0:
         raise UsageError(f"--override: learner.fork_learning_rate must be > 0 and the warm-ups >= 0, got {lr}, "
@@ -336,7 +306,7 @@ def run(a: TrainArgs):
     run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")
     config = run_config(a, env, env_cfg, learner, recipe)
     with quiet_stdout():  # rsl-rl prints both networks whole; the config holds them
-        runner = CraRunner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
+        runner = make_runner(env, runner_cfg(learner), log_dir=str(run_dir) if rank == 0 else None, device=a.device,
                            quiet=a.quiet, run_info={"task": a.task, "variant": a.variant, "seed": a.seed,
                                                     "sim": a.sim, "bf16": a.bf16, "recipe": a.recipe,
                                                     "config": config})

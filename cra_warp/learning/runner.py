@@ -5,12 +5,12 @@
   torchrun's processes each drive one core (CUDA keeps rsl-rl's own NCCL path);
 - one compact progress line per iteration (iteration, env-steps/s, reward, episode length, InfoNCE accuracy, ETA)
   instead of rsl-rl's 40-line block; everything still goes to TensorBoard through rsl-rl's logger.
+The symmetry loss's mirror maps come from the task (envs.checkpoints.make_runner builds the runner with them).
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import datetime
 import io
 import os
@@ -23,18 +23,14 @@ from rsl_rl.runners import OnPolicyRunner
 
 class CraRunner(OnPolicyRunner):
     def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", quiet: bool = False,
-                 run_info: dict | None = None):
+                 run_info: dict | None = None, mirror: dict | None = None):
         self._quiet = quiet
         self.run_info = run_info or {}  # stored in every checkpoint: what play/export need to rebuild the env
         self.history: list[dict] = []   # one record per iteration: what the progress line shows
         self._t0 = time.time()
         alg = train_cfg.get("algorithm", {})
-        if alg.get("symmetry_weight"):  # the task's mirror maps (envs.observations), which the library cannot know
-            from envs.observations import action_mirror, actor_mirror
-
-            train_cfg = {**train_cfg, "algorithm": {**alg, "mirror": {
-                "obs": actor_mirror(env.layout, env.robot, env.cfg.uses_clock),
-                "actions": action_mirror(env.robot, env.cfg.uses_clock)}}}
+        if alg.get("symmetry_weight") and mirror is not None:  # the task's mirror maps (envs.checkpoints.make_runner)
+            train_cfg = {**train_cfg, "algorithm": {**alg, "mirror": mirror}}
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         log = self.logger.log
 
@@ -93,88 +89,3 @@ class CraRunner(OnPolicyRunner):
                                  "world_size": world_size}
         if not torch.distributed.is_initialized():
             torch.distributed.init_process_group(backend="gloo", rank=self.gpu_global_rank, world_size=world_size)
-
-
-def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str | None = None,
-                          whole_course: bool = False, **env_overrides):
-    """Rebuild the env and runner a checkpoint was trained with and load it. Returns (runner, env).
-
-    The checkpoint's stored configuration (env, world, learner) is rebuilt as it was, never from today's defaults;
-    the caller changes only what an evaluation needs: ``num_envs``, ``device``, the simulator (``sim``), every
-    terrain box in every world (``whole_course``, for recording) and LocoConfig fields in ``env_overrides``
-    (terrain, seed, course, randomization, episode_length_s). A checkpoint whose observation layout no longer
-    matches today's code is refused. Raises CheckpointError (one line) for a missing, foreign or mismatched file.
-    """
-    from cra_warp.config_io import from_data
-    from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
-    from cra_warp.learning.config import LearnerConfig, runner_cfg, stored_target_actor_obs
-    from envs.loco_config import DifficultyConfig, LocoConfig
-    from envs.locomotion import LocoEnv
-    from train.cli import VARIANTS
-
-    info = read_checkpoint(path).get("infos") or {}
-    stored = info.get("config")
-    try:
-        if stored is not None:
-            env_cfg = from_data(LocoConfig, stored["env"])
-            learner = from_data(LearnerConfig, stored["learner"])
-            learner.contrast = dataclasses.replace(learner.contrast,
-                                                   target_actor_obs=stored_target_actor_obs(stored["learner"]))
-        else:  # written before runs stored their configuration: variant and task only, today's defaults
-            variant = info.get("variant", "ours")
-            if variant not in VARIANTS:
-                raise CheckpointError(f"{path}: unknown variant {variant!r} in the checkpoint")
-            env_variant, contrast, kind = VARIANTS[variant]
-            env_cfg = LocoConfig(variant=env_variant, terrain=info.get("task", "flat"))
-            learner = LearnerConfig()
-            learner.contrast = dataclasses.replace(learner.contrast, variant=contrast,
-                                                   target_actor_obs=stored_target_actor_obs({}))
-            learner.actor = dataclasses.replace(learner.actor, kind=kind)
-            sim = sim or info.get("sim", "newton")
-        world = dataclasses.replace(env_cfg.world, threads=0)  # MuJoCo batch threads: this machine's, not the run's
-        if sim is not None:
-            world = dataclasses.replace(world, backend=sim)
-        if whole_course:
-            world = dataclasses.replace(world, terrain_window=None)
-        # evaluation runs the whole task: a training curriculum's level (a rebuilt env would restart it) is off
-        env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device,
-                                      difficulty=DifficultyConfig(commands=False, randomization=False),
-                                      world=dataclasses.replace(world, device=device), **env_overrides)
-    except (KeyError, TypeError, ValueError) as e:
-        if isinstance(e, CheckpointError):
-            raise
-        raise CheckpointError(f"{path}: its stored configuration cannot be rebuilt ({e})") from e
-    env = LocoEnv(env_cfg)
-    if stored is not None:
-        _check_against_today(path, stored, env)
-    runner = CraRunner(env, runner_cfg(learner), log_dir=None, device=device, quiet=True, run_info=info)
-    load_checkpoint(path, runner, load_cfg={"actor": True})  # inference: a shipped, actor-only file is enough
-    return runner, env
-
-
-# What a policy was trained against that today's code also defines: the robot's actuation and pose, and the
-# observation layouts. A difference means the policy would run on another robot or read shifted inputs.
-ROBOT_FIELDS = ("joint_names", "default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper",
-                "action_scale", "armature")
-
-
-def _check_against_today(path, stored: dict, env) -> None:
-    from cra_warp.config_io import to_data
-    from cra_warp.learning.checkpoint import CheckpointError
-
-    try:
-        robot, layouts = stored["robot"], stored["layout"]
-        layouts = {g: layouts[g] for g in ("actor", "privileged")}
-    except (KeyError, TypeError) as e:
-        raise CheckpointError(f"{path}: its stored configuration lacks {e}") from e
-    today = to_data(env.robot)
-    for k in ROBOT_FIELDS:
-        if robot.get(k) != today[k]:
-            raise CheckpointError(f"{path}: the robot's {k} differs from today's config ({robot.get(k)} in the "
-                                  f"checkpoint, {today[k]} now)")
-    for group, now in (("actor", env.layout), ("privileged", env.priv_layout)):
-        then, now = layouts[group], to_data(now)
-        if then != now:
-            diff = next(k for k in list(then) + list(now) if then.get(k) != now.get(k))
-            raise CheckpointError(f"{path}: the {group} observation layout differs from today's code at "
-                                  f"{diff!r} ({then.get(diff)} in the checkpoint, {now.get(diff)} now)")

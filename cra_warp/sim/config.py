@@ -18,7 +18,7 @@ from typing import Literal, Protocol
 import numpy as np
 import torch
 
-from cra_warp.terrain_window import TerrainWindows, WindowConfig
+from cra_warp.terrain.window import TerrainWindows, WindowConfig
 from robots.robot_config import RobotConfig
 
 FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
@@ -48,7 +48,7 @@ class WorldConfig:
     nconmax: int | None = None          # contacts per world; None: sized from the contact mode and the terrain
     njmax: int | None = None            # constraint rows per world; None: sized from nconmax
     capture: bool = True                # record one env step as a graph and replay it (CPU and CUDA)
-    # Terrain boxes: each world holds the boxes near its robot (cra_warp.terrain_window); None: every world
+    # Terrain boxes: each world holds the boxes near its robot (cra_warp.terrain.window); None: every world
     # collides with the whole course (its broad phase then grows with the box count).
     terrain_window: WindowConfig | None = field(default_factory=WindowConfig)
 

@@ -25,7 +25,7 @@ from newton.sensors import SensorContact
 
 from cra_warp.rotations import quat_rotate
 from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
-from cra_warp.terrain_window import PARK_DEPTH, PARK_HALF, TerrainWindows
+from cra_warp.terrain.window import PARK_DEPTH, PARK_HALF, TerrainWindows
 from robots.robot_config import RobotConfig, robot_urdf_text
 
 

@@ -1,7 +1,8 @@
 """Terrain generation: one heightfield holding a grid of tiles, rows = difficulty levels, columns = terrain types.
 
-The heightfield array is the single source of truth: collision boxes (``terrain_boxes``), height sampling
-(``terrain_sampling``), spawn origins and the evaluation course are all derived from it.
+The heightfield array is the single source of truth: collision boxes (``boxes``), height sampling (``sampling``),
+spawn origins and the evaluation course (``course``) are all derived from it; ``curriculum`` moves robots between
+levels, ``window`` gives each world the boxes near its robot.
 
 Layout (world frame, z up): tile (level l, column c) is the square [x0 + l T, x0 + (l + 1) T] x [y0 + c T, ...],
 T = ``tile_size``; a flat border surrounds the grid. Sample [i, j] of the array is the ground height at the centre
