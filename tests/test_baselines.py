@@ -81,6 +81,7 @@ def test_history_window_replays_in_the_update():
         torch.testing.assert_close(newest, expected, atol=1e-6, rtol=0)
 
 
+@pytest.mark.slow
 def test_dreamwaq_estimator_uses_the_history():
     """Trained on EchoEnv, the velocity estimate learns a target that only the previous step's observation
     explains; PPO's own loss sends no gradient into the estimator (its outputs enter the policy detached)."""
@@ -105,6 +106,7 @@ def test_dreamwaq_estimator_uses_the_history():
     assert all(p.grad is not None and p.grad.any() for p in alg.actor.encoder.parameters())
 
 
+@pytest.mark.slow
 def test_dwl_world_model_trains_the_shared_encoder():
     """DWL's reconstruction loss reaches the GRU encoder and the decoder, not the critic; an update lowers it."""
     # on random rewards PPO's gradient is noise that shares the actor's norm clip: a larger weight than DWL's 0.2
@@ -129,6 +131,7 @@ def test_dwl_world_model_trains_the_shared_encoder():
     assert sum(losses[-3:]) / 3 < 0.5 * losses[1], losses[::3]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["dreamwaq", "dwl"])
 def test_baseline_export_parity(tmp_path, kind):
     """TorchScript and ONNX (obs, h_in) -> (actions, h_out) give the model's rollout actions; the JSON names the
@@ -159,6 +162,7 @@ def test_baseline_export_parity(tmp_path, kind):
     torch.testing.assert_close(torch.stack(out), ref, atol=1e-5, rtol=0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["dreamwaq", "dwl"])
 def test_baseline_trains_exports_and_runs_from_its_export(tmp_path, variant, capsys):
     """cra-train --variant <baseline>: 2 iterations on the task, its export driven by the numpy deploy module from

@@ -131,6 +131,7 @@ def test_nan_in_one_world_resets_that_world_only(env):
     assert torch.isfinite(env.world.joint_target).all() and env.actions[5].abs().max() == 0
 
 
+@pytest.mark.slow
 def test_scripted_stand_keeps_robots_up_where_zero_actions_fall():
     # Nominal physics. The robot's ankle PD (pitch kp 130) cannot hold the reference pose: a zero action falls
     # after ~3.4 s; the scripted stand (cra_warp.stand) holds it through the same PD law.
@@ -495,6 +496,7 @@ def test_stride_feedforward_puts_each_foot_down_ahead_and_lifts_it_behind():
     assert all(abs(d) < 0.01 for d in still), still
 
 
+@pytest.mark.slow
 def test_lateral_and_turn_feedforward_put_each_foot_down_towards_the_command():
     # Under a 0.3 m/s leftward command each sole lands ~2 x 0.25 x 0.3 rad x leg length further left than it lifts
     # (the robot's lateral joint signs are right), rightward for a rightward one; under a 0.5 rad/s turn each sole

@@ -123,6 +123,7 @@ def test_eval_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, eval_cli.main(args), word)
 
 
+@pytest.mark.slow
 def test_flat_trial_scores_a_stand_as_upright_and_not_tracking(tmp_path):
     """The scripted stand on flat ground: every robot stays up for the trial, its forward-velocity tracking error
     is the commanded speed and it never lifts a foot (it does not walk); a robot that falls counts as failed."""

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from conftest import one_line_error
 from train import grid
 
@@ -75,6 +77,7 @@ def test_grid_rejects_bad_values(capsys, tmp_path):
     one_line_error(capsys, grid.main(["--iterations", "0", "--out", str(tmp_path)]), "--iterations")
 
 
+@pytest.mark.slow
 def test_a_tiny_grid_runs_end_to_end_and_resumes(tmp_path, capsys):
     # 8 iterations: long enough for the first falls, when a run first logs its terrain level
     args = ["--methods", "ours", "dwl", "--seeds", "1", "--iterations", "8", "--num-envs", "4", "--parallel", "1",

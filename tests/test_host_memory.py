@@ -35,6 +35,7 @@ def _faults_per_page(mode: str) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc malloc tuning: Linux only")
 def test_kept_memory_reuses_freed_pages():
     mmapped = _faults_per_page("mmap")

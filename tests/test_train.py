@@ -153,6 +153,7 @@ def test_play_a_trained_policy(trained, capsys):
     assert "vel_tracking_rmse" in out and "falls_per_robot_minute" in out
 
 
+@pytest.mark.slow
 def test_eval_a_trained_policy_against_the_pd_stand(trained, tmp_path, capsys):
     first, _ = trained
     out = tmp_path / "eval.json"
@@ -294,6 +295,7 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
                    "robot's kp differs")
 
 
+@pytest.mark.slow
 def test_the_same_seed_gives_identical_first_iterations(tmp_path):
     """Two CPU runs with one seed: the same rewards, episode lengths and losses for their first 3 iterations."""
     histories = []
@@ -435,6 +437,7 @@ def test_init_from_an_actor_only_policy_warms_its_critic_up(trained, tmp_path):
     assert forked["critic_warmup_left"] == warmup - 2
 
 
+@pytest.mark.slow
 def test_resume_keeps_each_robots_terrain_level(tmp_path):
     """Rough runs store every robot's terrain level; --resume puts them back instead of starting the terrain
     curriculum again."""
@@ -462,6 +465,7 @@ def test_resume_refuses_contrastive_heads_built_for_another_target(trained, caps
                    "learner.contrast.target_actor_obs=false")
 
 
+@pytest.mark.slow
 def test_what_a_user_reads(tmp_path):
     """A run ends with its directory and the exported files, third-party warnings summarised in one line; neither
     a run nor its --resume prints the networks."""
