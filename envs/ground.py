@@ -19,7 +19,7 @@ import torch
 from cra_warp.terrain import HeightField, TerrainConfig, generate_terrain
 from cra_warp.terrain.boxes import terrain_boxes
 from cra_warp.terrain.course import Deployment, EvalCourse, EvalCourseConfig
-from cra_warp.terrain.curriculum import TerrainCurriculum
+from cra_warp.terrain.curriculum import TerrainCurriculum, levels_by_type
 from cra_warp.terrain.sampling import HeightSampler
 from cra_warp.sim import TerrainBoxes
 
@@ -92,14 +92,7 @@ class Ground:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0
 
     def mean_level_by_type(self) -> dict[str, float]:
-        """Mean level of the robots on each terrain type's columns (pits are the ascents: "stairs_down" and
-        "slope_down" tiles are climbed out of), for the logs."""
+        """Mean level of the robots on each terrain type's columns, for the logs (pits are the ascents)."""
         if self.curriculum is None:
             return {}
-        cur, out = self.curriculum, {}
-        for name in dict.fromkeys(self.column_types):
-            cols = torch.tensor([c for c, t in enumerate(self.column_types) if t == name], device=cur.levels.device)
-            on = torch.isin(cur.cols, cols)
-            if on.any():
-                out[name] = float(cur.levels[on].float().mean())
-        return out
+        return levels_by_type(self.curriculum.levels.cpu(), self.column_types)

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from cra_warp.config_io import to_data
-from train.campaign import ROOT, CampaignArgs, resume, save, train_argv
+from train.campaign import ROOT, CampaignArgs, resume, save, status, train_argv
 from cra_warp.cli import parse_args
 from train.train import TrainArgs
 
@@ -45,6 +45,10 @@ def test_save_replaces_and_resume_continues(tmp_path):
     assert sorted(p.name for p in folder.glob("*/*.pt")) == ["model_2.pt"]  # replaced, not accumulated
     manifest = json.loads((folder / "campaign.json").read_text())
     assert manifest["target"] == 5 and manifest["runs"]["arm_s1"]["iteration"] == 2
+    records = status(CampaignArgs("status", "c", root=tmp_path / "campaigns", json=tmp_path / "s.json"))
+    assert [(r["run"], r["iteration"], r["env_steps"]) for r in records] == [("arm_s1", 2, 3 * 8 * 24)]
+    first_run = status(CampaignArgs("status", "c", (run,), iteration=0))
+    assert first_run[0]["iteration"] == 0 and json.loads((tmp_path / "s.json").read_text())["runs"] == records
 
 
 @pytest.mark.slow

@@ -91,3 +91,15 @@ def test_curriculum_restore_puts_robots_on_their_levels_tiles(terrain):
         cur.restore([1, 2, 3])
     with pytest.raises(ValueError, match="must be in \\[0, 9\\]"):
         cur.restore([0, 0, 10, 0])
+
+
+def test_levels_by_type_follows_the_curriculums_columns(terrain):
+    from cra_warp.terrain.curriculum import levels_by_type
+
+    cur = TerrainCurriculum(terrain, 13, seed=3, max_init_level=terrain.num_levels - 1)
+    by_type = levels_by_type(cur.levels, terrain.column_types)
+    for name, level in by_type.items():
+        on = torch.tensor([terrain.column_types[c] == name for c in cur.cols.tolist()])
+        assert level == pytest.approx(float(cur.levels[on].float().mean()))
+    assert set(by_type) == set(terrain.column_types[:13])
+    assert levels_by_type([4.0, 0.0], ("a", "b", "c")) == {"a": 4.0, "b": 0.0}

@@ -2,13 +2,16 @@
 
     cra-campaign save climb ~/cra_runs/climb/control_s1 ~/cra_runs/climb/sigma_s1 --target 3000
     cra-campaign resume climb [--out ~/cra_runs/climb] [--cores 0]
+    cra-campaign status climb [RUN ...] [--iteration K] [--json out.json]
 
 A campaign is a folder robots/<robot>/campaigns/<name>/ in the repository: for each of its runs the newest
 checkpoint (actor, critic, optimizer, curriculum levels and the run's whole resolved config: a few MB), a
 campaign.json and a RESUME.md with the one command that continues every run on a fresh clone. ``save`` replaces
 what the folder held (never accumulates); ``resume`` restarts each run with the arguments stored in its checkpoint,
 ``--resume`` from the committed file, logging to <out>/<run>/, all on the given cores (one core shared by every
-run by default), until the campaign's target iteration. The checkpoint is the source of truth: nothing else is
+run by default), until the campaign's target iteration. ``status`` tells where each run is (iteration, env steps,
+mean terrain level per terrain type: the pits are the ascents) from its checkpoint, the committed campaign's or
+each RUN directory's. The checkpoint is the source of truth: nothing else is
 needed to continue, so a lost ~/cra_runs costs at most the iterations since the last save.
 """
 
@@ -38,9 +41,9 @@ _PER_START = ("resume", "init", "log_dir", "max_iterations")
 
 @dataclass
 class CampaignArgs:
-    action: Positional[Literal["save", "resume"]]
+    action: Positional[Literal["save", "resume", "status"]]
     name: Positional[str]                       # the campaign's folder under robots/adam_lite/campaigns/
-    runs: Positional[tuple[Path, ...]] = ()     # save: each run's --log-dir (its newest model_<it>.pt is kept)
+    runs: Positional[tuple[Path, ...]] = ()     # save, status: each run's --log-dir (its newest model_<it>.pt)
     target: int | None = None                   # save: the iteration every run trains to (default: kept, or 3000)
     out: Path | None = None                     # resume: where the runs continue (default ~/cra_runs/<name>)
     cores: tuple[int, ...] = (0,)               # resume: the cores every run shares (taskset)
@@ -48,6 +51,8 @@ class CampaignArgs:
     only: tuple[str, ...] = ()                  # resume: these runs only (default: every run)
     root: Path = ROOT                           # where campaigns live (tests use a temporary one)
     dry_run: bool = False                       # resume: print the commands, run nothing
+    iteration: int | None = None                # status: each run's model_<iteration>.pt instead of its newest
+    json: Path | None = None                    # status: write the table here
 
 
 def cpu_model() -> str:
@@ -196,6 +201,55 @@ def resume(a: CampaignArgs) -> int:
     return 0
 
 
+def status(a: CampaignArgs) -> list[dict]:
+    """One record per run: its checkpoint, iteration, env steps, difficulty and mean terrain level per type."""
+    from cra_warp.config_io import from_data
+    from cra_warp.learning.checkpoint import read_checkpoint
+    from cra_warp.terrain import TerrainConfig, column_types
+    from cra_warp.terrain.curriculum import levels_by_type
+    from train.train import newest_checkpoint
+
+    if a.runs:
+        found = {}
+        for run in a.runs:
+            if a.iteration is None:
+                ckpt = newest_checkpoint(run) if run.is_dir() else None
+            else:
+                ckpt = max(run.rglob(f"model_{a.iteration}.pt"), key=lambda p: p.stat().st_mtime, default=None)
+            if ckpt is None:
+                raise UsageError(f"{run}: no model_{a.iteration if a.iteration is not None else '<it>'}.pt under it")
+            found[run.name] = ckpt
+    else:
+        folder = a.root / a.name
+        if not (folder / "campaign.json").is_file():
+            raise UsageError(f"no campaign {a.name!r} under {a.root}: name one, or give run directories")
+        found = {k: folder / r["checkpoint"] for k, r in json.loads((folder / "campaign.json").read_text())["runs"].items()}
+    records = []
+    for label, ckpt in found.items():
+        saved = read_checkpoint(ckpt)
+        infos = saved.get("infos") or {}
+        config = infos.get("config") or {}
+        it = int(saved["iter"])
+        rec = {"run": label, "checkpoint": str(ckpt), "iteration": it,
+               "env_steps": (it + 1) * config.get("args", {}).get("num_envs", 0)
+               * config.get("learner", {}).get("num_steps_per_env", 24),
+               "difficulty": infos.get("difficulty_level")}
+        if infos.get("terrain_levels") is not None:
+            tiles = from_data(TerrainConfig, (config.get("env") or {}).get("rough") or {})
+            rec["terrain_level"] = sum(infos["terrain_levels"]) / len(infos["terrain_levels"])
+            rec["terrain_level_by_type"] = levels_by_type(infos["terrain_levels"], column_types(tiles))
+        records.append(rec)
+    types = list(dict.fromkeys(t for r in records for t in r.get("terrain_level_by_type", {})))
+    print(f"{'run':16} {'iter':>6} {'env steps':>10} " + " ".join(f"{t:>11}" for t in types))
+    for r in records:
+        by = r.get("terrain_level_by_type", {})
+        print(f"{r['run']:16} {r['iteration']:6d} {r['env_steps'] / 1e6:9.2f}M "
+              + " ".join(f"{by[t]:11.2f}" if t in by else f"{'-':>11}" for t in types))
+    if a.json:
+        write_json(a.json, {"campaign": a.name, "cpu": cpu_model(), "runs": records}, indent=2)
+    return records
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         a = parse_args(CampaignArgs, argv, __doc__)
@@ -203,6 +257,9 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--iterations must be >= 1, got {a.iterations}")
         if a.action == "save":
             print(f"saved {save(a)}")
+            return 0
+        if a.action == "status":
+            status(a)
             return 0
         return resume(a)
     except UsageError as e:

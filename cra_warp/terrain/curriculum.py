@@ -35,6 +35,20 @@ from cra_warp.terrain import Terrain
 RULES = ("path", "reach")
 
 
+def levels_by_type(levels, column_types: tuple[str, ...]) -> dict[str, float]:
+    """Mean level [float] per terrain type of envs at ``levels`` [N], env i living on column i mod C (as
+    TerrainCurriculum places them) of a grid whose columns have ``column_types`` [C]; types no env is on are left
+    out. Pits ("stairs_down", "slope_down") are the ascents: their robots climb out."""
+    levels = torch.as_tensor(levels, dtype=torch.float32)
+    types = [column_types[c % len(column_types)] for c in range(len(levels))]
+    out = {}
+    for name in dict.fromkeys(column_types):
+        on = torch.tensor([t == name for t in types], dtype=torch.bool)
+        if on.any():
+            out[name] = float(levels[on].mean())
+    return out
+
+
 class TerrainCurriculum:
     """Levels [N], columns [N] and spawn origins [N, 3] of ``num_envs`` envs on ``terrain``."""
 
