@@ -43,8 +43,12 @@ def parse_args(cls: type[T], argv: list[str] | None, doc: str | None) -> T:
 def check_sim(sim: str | None, device: str) -> None:
     if sim is not None and sim not in SIMS:
         raise UsageError(f"--sim must be one of {', '.join(SIMS)}, got {sim!r}")
-    if sim == "mujoco" and device != "cpu":
-        raise UsageError(f"--sim mujoco runs on the CPU only (use --device cpu or --sim newton), got --device {device}")
+    from cra_warp.sim.config import check_backend_device
+
+    try:
+        check_backend_device(sim or "newton", device)
+    except ValueError as e:
+        raise UsageError(f"--sim {e} (use --device cpu or --sim newton)") from None
 
 
 def check_device(device: str) -> None:

@@ -94,9 +94,9 @@ class RolloutVideo:
     def __init__(self, world, terrain, path: Path, fps: float):
         import mujoco
 
-        from cra_warp.sim.newton import NewtonWorld
+        from cra_warp.sim import mjcf
 
-        spec = mujoco.MjSpec.from_string(NewtonWorld.mjcf(world.robot, world.cfg, terrain))
+        spec = mujoco.MjSpec.from_string(mjcf(world.robot, world.cfg, terrain))
         add_skeleton(spec)
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)

@@ -6,7 +6,7 @@ import torch
 import warp as wp
 
 from conftest import device_for, stand_steps
-from cra_warp.sim import FREE_Q, World, WorldConfig, make_world
+from cra_warp.sim import FREE_Q, World, WorldConfig, check_backend_device, make_world, mjcf
 from robots.adam_lite import ADAM_LITE
 
 G = 9.81
@@ -44,6 +44,21 @@ def test_config_errors_name_the_field():
         WorldConfig(num_envs=0)
     with pytest.raises(ValueError, match="CPU only"):
         WorldConfig(backend="mujoco", device="cuda:0")
+    check_backend_device("mujoco", "cpu")
+    check_backend_device("newton", "cuda:0")
+    with pytest.raises(ValueError, match="mujoco runs on the CPU only, got device 'cuda:0'"):
+        check_backend_device("mujoco", "cuda:0")
+
+
+def test_one_mjcf_is_the_model_the_mujoco_backend_runs(world):
+    """cra_warp.sim.mjcf is the one MJCF builder: one world whatever the config's size, device or backend, and its
+    bodies are the worlds' bodies in their order."""
+    import re
+
+    xml = mjcf(ADAM_LITE, WorldConfig(num_envs=7, backend="mujoco"))
+    assert xml == mjcf(ADAM_LITE)
+    names = [b[len(ADAM_LITE.name) + 1:] for b in re.findall(r'<body name="([^"]+)"', xml)]
+    assert {n: i for i, n in enumerate(names)} == world.body_index
 
 
 def test_zero_targets_fall_and_the_scripted_stand_holds_5s_with_feet_carrying_the_weight(world):

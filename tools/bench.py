@@ -249,11 +249,10 @@ def _rollout_worker(spec: dict) -> dict:
 
 def export_mjcf(terrain: str, path: str) -> None:
     """Write the MJCF that SolverMuJoCo builds for a one-robot world with the benchmark's options."""
-    from cra_warp.sim import WorldConfig
-    from cra_warp.sim.newton import NewtonWorld
+    from cra_warp.sim import mjcf
     from robots.adam_lite import ADAM_LITE
 
-    Path(path).write_text(NewtonWorld.mjcf(ADAM_LITE, WorldConfig(), stairs()[0] if terrain == "stairs" else None))
+    Path(path).write_text(mjcf(ADAM_LITE, terrain=stairs()[0] if terrain == "stairs" else None))
 
 
 def _run_workers(specs: list[dict], env: dict | None = None) -> list[dict]:

@@ -107,11 +107,10 @@ def build_model(a: Sim2SimArgs, spec_json: dict):
     import mujoco
 
     if a.model is None:
-        from cra_warp.sim import WorldConfig
-        from cra_warp.sim.newton import NewtonWorld
+        from cra_warp.sim import mjcf
         from robots.adam_lite import ADAM_LITE
 
-        spec, where = mujoco.MjSpec.from_string(NewtonWorld.mjcf(ADAM_LITE, WorldConfig(num_envs=1), None)), None
+        spec, where = mujoco.MjSpec.from_string(mjcf(ADAM_LITE)), None
     else:
         try:
             spec, where = mujoco.MjSpec.from_file(str(a.model)), a.model.parent

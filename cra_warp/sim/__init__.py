@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, World, WorldConfig
+from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, World, WorldConfig, check_backend_device
 from robots.robot_config import RobotConfig
 
-__all__ = ["FREE_Q", "FREE_QD", "TerrainBoxes", "World", "WorldConfig", "make_world"]
+__all__ = ["FREE_Q", "FREE_QD", "TerrainBoxes", "World", "WorldConfig", "check_backend_device", "make_world", "mjcf"]
 
 
 def make_world(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None) -> World:
@@ -18,3 +18,12 @@ def make_world(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: Terr
     from cra_warp.sim.newton import NewtonWorld
 
     return NewtonWorld(robot, cfg, terrain)
+
+
+def mjcf(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None) -> str:
+    """The MJCF text of one world of ``cfg`` on ``terrain`` (every terrain box, no windows): the MjModel the MuJoCo C
+    backend runs, videos draw and cra-sim2sim defaults to. Bodies and joints are named "<robot>_<link or joint>".
+    Newton's importer and SolverMuJoCo's export build it, so it is the model Newton steps too."""
+    from cra_warp.sim.newton import build_mjcf
+
+    return build_mjcf(robot, cfg or WorldConfig(), terrain)

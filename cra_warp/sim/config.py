@@ -24,6 +24,12 @@ from robots.robot_config import RobotConfig
 FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
 
 
+def check_backend_device(backend: str, device: str) -> None:
+    """The one statement of which backend runs where: MuJoCo C (mujoco.batch) steps host memory only."""
+    if backend == "mujoco" and device != "cpu":
+        raise ValueError(f"mujoco runs on the CPU only, got device {device!r}")
+
+
 @dataclass
 class WorldConfig:
     """Physics settings of the batched world. Defaults are the ones benchmarked on the 2-core CPU."""
@@ -61,8 +67,7 @@ class WorldConfig:
             raise ValueError(f"WorldConfig.sim_dt must be > 0, got {self.sim_dt}")
         if self.backend not in ("newton", "mujoco"):
             raise ValueError(f"WorldConfig.backend must be newton or mujoco, got {self.backend!r}")
-        if self.backend == "mujoco" and self.device != "cpu":
-            raise ValueError(f"WorldConfig.backend mujoco runs on the CPU only, got device {self.device!r}")
+        check_backend_device(self.backend, self.device)
 
     @property
     def env_dt(self) -> float:

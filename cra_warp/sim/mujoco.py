@@ -29,7 +29,8 @@ import torch
 from mujoco.batch import Batch, SimulationError
 
 from cra_warp.rotations import quat_rotate, quat_rotate_inv
-from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
+from cra_warp.sim import mjcf
+from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig, check_backend_device
 from robots.robot_config import RobotConfig
 
 _NO_SENSORS = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
@@ -51,16 +52,13 @@ class MujocoWorld:
     """A batched MuJoCo C world of ``cfg.num_envs`` robots; see cra_warp.sim.config.World for the views."""
 
     def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
-        from cra_warp.sim.newton import NewtonWorld  # builds the model (Newton's importer and MJCF export)
-
         self.robot = robot
         self.cfg = cfg = cfg or WorldConfig(backend="mujoco")
-        if cfg.device != "cpu":
-            raise ValueError(f"the MuJoCo backend runs on the CPU only, got device {cfg.device!r}")
+        check_backend_device("mujoco", cfg.device)  # cfg may say another backend (its MJCF is the same)
         t0 = time.perf_counter()
         self.num_envs = N = cfg.num_envs
         J, F = robot.num_joints, len(robot.foot_links)
-        xml = NewtonWorld.mjcf(robot, cfg, terrain)
+        xml = mjcf(robot, cfg, terrain)
         prefix = f"{robot.name}_"
         self._body_names = re.findall(r'<body name="([^"]+)"', xml)
         names = [b[len(prefix):] for b in self._body_names]

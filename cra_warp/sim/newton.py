@@ -102,25 +102,6 @@ class NewtonWorld:
 
     # ---------------------------------------------------------------- building
     @staticmethod
-    def mjcf(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None = None) -> str:
-        """The MJCF text of the MuJoCo model SolverMuJoCo builds for one world of ``cfg`` on ``terrain`` (every
-        terrain box in the model, no windows): the model the MuJoCo C backend runs. Bodies and joints are named
-        "<robot>_<link or joint>"."""
-        import dataclasses
-        import tempfile
-
-        one = dataclasses.replace(cfg, num_envs=1, device="cpu", capture=False, terrain_window=None, backend="newton")
-        model, _ = NewtonWorld._build_model(robot, one, terrain)
-        nconmax, njmax = NewtonWorld._buffer_sizes(one, terrain)
-        with tempfile.TemporaryDirectory() as tmp:
-            path = f"{tmp}/model.xml"
-            newton.solvers.SolverMuJoCo(model, iterations=cfg.iterations, ls_iterations=cfg.ls_iterations,
-                                        nconmax=nconmax, njmax=njmax, integrator=cfg.integrator,
-                                        use_mujoco_contacts=True, disable_sensors=True, save_to_mjcf=path)
-            with open(path) as f:
-                return f.read()
-
-    @staticmethod
     def _build_model(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None):
         proto = newton.ModelBuilder()
         newton.solvers.SolverMuJoCo.register_custom_attributes(proto)
@@ -363,3 +344,20 @@ class NewtonWorld:
     def apply_impulse(self, env_ids: torch.Tensor, delta_v: torch.Tensor):
         """Add ``delta_v`` [n, 3] (m/s, world frame) to the base velocity of the given worlds (a push)."""
         self.joint_qd[env_ids, 0:3] += delta_v
+
+
+def build_mjcf(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None = None) -> str:
+    """cra_warp.sim.mjcf's builder: SolverMuJoCo's MJCF export of a one-world, uncaptured Newton model."""
+    import dataclasses
+    import tempfile
+
+    one = dataclasses.replace(cfg, num_envs=1, device="cpu", capture=False, terrain_window=None, backend="newton")
+    model, _ = NewtonWorld._build_model(robot, one, terrain)
+    nconmax, njmax = NewtonWorld._buffer_sizes(one, terrain)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = f"{tmp}/model.xml"
+        newton.solvers.SolverMuJoCo(model, iterations=cfg.iterations, ls_iterations=cfg.ls_iterations,
+                                    nconmax=nconmax, njmax=njmax, integrator=cfg.integrator,
+                                    use_mujoco_contacts=True, disable_sensors=True, save_to_mjcf=path)
+        with open(path) as f:
+            return f.read()
