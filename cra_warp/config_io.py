@@ -3,7 +3,8 @@
 ``to_data`` turns nested dataclasses into JSON-able dicts (tuples become lists, paths strings, slices
 [start, stop], tensors and arrays lists); ``from_data``
 rebuilds the dataclass from such a dict, field by field from the type hints, so a stored run never depends on
-today's defaults. Unknown keys are an error that names them (a config written by another version of the code).
+today's defaults. Unknown keys are an error that names them (a config written by another version of the code),
+except the ones a dataclass lists in its ``RETIRED_FIELDS`` (fields it no longer has, still in stored runs).
 """
 
 from __future__ import annotations
@@ -103,9 +104,22 @@ def from_data(cls, data: dict, where: str = ""):
     if not isinstance(data, dict):
         raise ValueError(f"{name}: expected a mapping, got {type(data).__name__}")
     fields = {f.name: f for f in dataclasses.fields(cls)}
+    retired = getattr(cls, "RETIRED_FIELDS", ())
+    data = {k: v for k, v in data.items() if k not in retired}
     unknown = sorted(set(data) - set(fields))
     if unknown:
         raise ValueError(f"{name} has no field(s) {unknown} (a config from another version of the code?)")
     hints = typing.get_type_hints(cls)
     kwargs = {k: _build(hints[k], v, f"{name}.{k}") for k, v in data.items() if fields[k].init}
     return cls(**kwargs)
+
+
+def flatten(data: dict, prefix: str = "") -> dict:
+    """{"a": {"b": 1}} -> {"a.b": 1}: nested config data (``to_data``'s) as dotted paths, empty dicts kept as leaves."""
+    out = {}
+    for k, v in data.items():
+        if isinstance(v, dict) and v:
+            out |= flatten(v, f"{prefix}{k}.")
+        else:
+            out[f"{prefix}{k}"] = v
+    return out

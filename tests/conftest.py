@@ -70,3 +70,17 @@ def centre_row(terrain, tile):
     rows, cols = tile.cells
     mid = (cols.start + cols.stop) // 2
     return terrain.field.heights[rows.start:(rows.start + rows.stop) // 2, mid].astype(np.float64) - terrain.base_height
+
+
+# Table I as printed in the paper (its weights w_i, in its order), typed here again so that a change of the recipes,
+# the defaults or the reward terms shows up against the paper itself (body_height's sign is corrected in the code)
+PAPER_TABLE_I = {
+    "lin_vel_tracking": 3.0, "ang_vel_tracking": 3.0, "lin_vel_z": -0.5, "ang_vel_xy": -0.025, "orientation": -1.25,
+    "torso_orientation": 2.0, "joint_acc": -2.5e-7, "joint_power": -2.5e-5, "body_height": 0.1,
+    "feet_clearance": -0.25, "action_rate": -0.01, "smoothness": -0.01, "feet_stumble": -0.5, "torques": -2.5e-6,
+    "joint_velocity": -1e-4, "joint_tracking_error": -0.25, "arm_joint_deviation": -0.1,
+    "hip_joint_deviation": -0.5, "waist_joint_deviation": -1.5, "joint_pos_limits": -2.0, "joint_vel_limits": -0.1,
+    "torque_limits": -0.1, "no_fly": 0.25, "feet_lateral_distance": 1.0, "feet_slip": -0.05,
+    "feet_ground_parallel": -2.0, "feet_contact_force": -1e-2, "feet_parallel": -2.5, "contact_momentum": -2.5e-2,
+    "contact_pattern": 1.0,
+}

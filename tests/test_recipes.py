@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from conftest import one_line_error
-from cra_warp.config_io import to_data
+from conftest import PAPER_TABLE_I, one_line_error
+from cra_warp.config_io import flatten, to_data
 from envs import recipes
 from envs.loco_config import LocoConfig
 from train import train as train_cli
@@ -17,30 +17,6 @@ from envs.methods import METHODS
 
 POLICIES = Path(__file__).resolve().parents[1] / "robots" / "adam_lite" / "policies"
 SHIPPED = sorted(p for p in POLICIES.iterdir() if (p / "config.json").is_file())
-
-# Table I as printed in the paper (its weights w_i), typed here again so that a change of either the recipe or
-# the defaults shows up against the paper itself.
-PAPER_TABLE_I = {
-    "lin_vel_tracking": 3.0, "ang_vel_tracking": 3.0, "lin_vel_z": -0.5, "ang_vel_xy": -0.025, "orientation": -1.25,
-    "torso_orientation": 2.0, "joint_acc": -2.5e-7, "joint_power": -2.5e-5, "body_height": 0.1,
-    "feet_clearance": -0.25, "action_rate": -0.01, "smoothness": -0.01, "feet_stumble": -0.5, "torques": -2.5e-6,
-    "joint_velocity": -1e-4, "joint_tracking_error": -0.25, "arm_joint_deviation": -0.1,
-    "hip_joint_deviation": -0.5, "waist_joint_deviation": -1.5, "joint_pos_limits": -2.0, "joint_vel_limits": -0.1,
-    "torque_limits": -0.1, "no_fly": 0.25, "feet_lateral_distance": 1.0, "feet_slip": -0.05,
-    "feet_ground_parallel": -2.0, "feet_contact_force": -1e-2, "feet_parallel": -2.5, "contact_momentum": -2.5e-2,
-    "contact_pattern": 1.0,
-}
-
-
-def flat(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict) and v:
-            out |= flat(v, f"{prefix}{k}.")
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
-
 
 def resolved(**kw) -> LocoConfig:
     env_cfg, _, _ = train_cli.configs(train_cli.TrainArgs(**kw))
@@ -53,7 +29,7 @@ def resolved(**kw) -> LocoConfig:
 def test_every_recipe_builds_a_valid_config(name, task, variant):
     cfg = resolved(recipe=name, task=task, variant=variant)
     overrides, dropped = recipes.resolve(name, task, uses_clock=cfg.uses_clock)
-    got = flat(to_data(cfg))
+    got = flatten(to_data(cfg))
     for path, value in overrides.items():
         assert got[path] == value, path
     # a method without a clock leaves out exactly the recipe's clock keys, and keeps the rest
@@ -91,8 +67,8 @@ def test_walk_reproduces_the_shipped_walkers_env_settings(policy):
     """The shipped policy's stored env config against `cra-train --recipe walk --task <its task>`: every setting
     the stored file has, but what is the run's own (robots, seed, device, simulator), is the same."""
     stored = json.loads((policy / "config.json").read_text())
-    now = flat(to_data(resolved(recipe="walk", task=stored["args"]["task"])))
-    then = flat(stored["env"])
+    now = flatten(to_data(resolved(recipe="walk", task=stored["args"]["task"])))
+    then = flatten(stored["env"])
     own = ("num_envs", "device", "seed", "world.")
     differ = {k: (then[k], now.get(k)) for k in then if not k.startswith(own) and then[k] != now.get(k)}
     assert not differ, differ
@@ -112,7 +88,7 @@ def test_paper_is_table_i_and_the_papers_clock():
     assert g.psi == 0.5 and g.alpha == 0.5 and g.beta_scale == 1.0 and not g.random_start_phase
     assert g.swing_feedforward == g.stride_feedforward == g.lateral_feedforward == g.turn_feedforward == 0.0
     # and the dataclass defaults are the paper's: the recipe changes nothing the CLI builds
-    base = flat(to_data(LocoConfig()))
+    base = flatten(to_data(LocoConfig()))
     assert all(base[k] == v for k, v in recipes.resolve("paper", "flat")[0].items())
 
 

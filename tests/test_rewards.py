@@ -8,19 +8,10 @@ import torch
 from cra_warp.gait import swing_depth
 from envs import rewards as R
 from envs.loco_config import DEFAULT_WEIGHTS, TABLE_I_TERMS, LocoConfig
+from conftest import PAPER_TABLE_I
 from robots.adam_lite import ADAM_LITE
 
 J = ADAM_LITE.num_joints
-PAPER_TABLE_I = {  # name: weight, as printed in the paper (body height's sign is corrected, see rewards.py)
-    "lin_vel_tracking": 3.0, "ang_vel_tracking": 3.0, "lin_vel_z": -0.5, "ang_vel_xy": -0.025, "orientation": -1.25,
-    "torso_orientation": 2.0, "joint_acc": -2.5e-7, "joint_power": -2.5e-5, "body_height": 0.1,
-    "feet_clearance": -0.25, "action_rate": -0.01, "smoothness": -0.01, "feet_stumble": -0.5, "torques": -2.5e-6,
-    "joint_velocity": -1e-4, "joint_tracking_error": -0.25, "arm_joint_deviation": -0.1,
-    "hip_joint_deviation": -0.5, "waist_joint_deviation": -1.5, "joint_pos_limits": -2.0, "joint_vel_limits": -0.1,
-    "torque_limits": -0.1, "no_fly": 0.25, "feet_lateral_distance": 1.0, "feet_slip": -0.05,
-    "feet_ground_parallel": -2.0, "feet_contact_force": -1e-2, "feet_parallel": -2.5, "contact_momentum": -2.5e-2,
-    "contact_pattern": 1.0,
-}
 
 
 def state(n=2, **over):

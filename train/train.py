@@ -202,7 +202,7 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
     """A checkpoint resumed into today's run: refused (one line) if the robot or the observation layouts changed
     since, or (unless ``fork``: --init, fresh heads) if its contrastive heads were built for another target; a PPO
     setting that differs from the checkpoint's is said on stderr when resuming (the CLI's value is used)."""
-    from cra_warp.config_io import to_data
+    from cra_warp.config_io import flatten, to_data
     from cra_warp.learning.checkpoint import read_checkpoint
     from cra_warp.learning.config import stored_target_actor_obs
     from envs.checkpoints import check_against_today
@@ -221,7 +221,7 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
         print(f"cra-train: resuming {path} with PPO settings changed from its own: {changed}", file=sys.stderr)
     # the task as it was: a run resumed under another recipe (or one written before recipes, on the paper's
     # defaults) would silently train on changed rewards or clock; said in one line, the CLI's value is used
-    then_env, now_env = _flat(stored.get("env", {})), _flat(to_data(env.cfg))
+    then_env, now_env = flatten(stored.get("env", {})), flatten(to_data(env.cfg))
     moved = {k: f"{then_env[k]} -> {v}" for k, v in now_env.items()
              if k in then_env and then_env[k] != v and not k.startswith(_RUN_FIELDS)}
     if moved and rank == 0 and not fork:
@@ -229,16 +229,6 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
 
 
 _RUN_FIELDS = ("num_envs", "device", "seed", "world.")   # what may differ between a run and its resume
-
-
-def _flat(d: dict, prefix: str = "") -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, dict) and v:
-            out |= _flat(v, f"{prefix}{k}.")
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _tiles(rough: dict | None) -> dict:
