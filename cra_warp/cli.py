@@ -46,7 +46,8 @@ def check_sim(sim: str | None, device: str) -> None:
     from cra_warp.sim.config import check_backend_device
 
     try:
-        check_backend_device(sim or "newton", device)
+        if sim is not None:  # None: the run's or the default backend, checked when the world is made
+            check_backend_device(sim, device)
     except ValueError as e:
         raise UsageError(f"--sim {e} (use --device cpu or --sim newton)") from None
 

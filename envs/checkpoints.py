@@ -35,6 +35,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     from cra_warp.config_io import from_data
     from cra_warp.learning.checkpoint import CheckpointError, load_checkpoint, read_checkpoint
     from cra_warp.learning.config import LearnerConfig, runner_cfg, stored_target_actor_obs
+    from cra_warp.sim import check_backend_device
     from envs.loco_config import DifficultyConfig, LocoConfig
     from envs.locomotion import LocoEnv
 
@@ -52,10 +53,11 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
             world = dataclasses.replace(world, backend=sim)
         if whole_course:
             world = dataclasses.replace(world, terrain_window=None)
+        check_backend_device(world.backend, device)  # a run stored on MuJoCo, asked for CUDA: one line, not a build
         # evaluation runs the whole task: a training curriculum's level (a rebuilt env would restart it) is off
         env_cfg = dataclasses.replace(env_cfg, num_envs=num_envs, device=device,
                                       difficulty=DifficultyConfig(commands=False, randomization=False),
-                                      world=dataclasses.replace(world, device=device), **env_overrides)
+                                      world=world, **env_overrides)
     except (KeyError, TypeError, ValueError) as e:
         raise CheckpointError(f"{path}: its stored configuration cannot be rebuilt ({e})") from e
     env = LocoEnv(env_cfg)

@@ -188,8 +188,8 @@ class DifficultyConfig:
 
 @dataclass
 class LocoConfig:
-    num_envs: int = 64
-    device: str = "cpu"
+    num_envs: int = 64                                    # the world's size and device: LocoEnv hands them to
+    device: str = "cpu"                                   # make_world (WorldConfig holds physics settings only)
     variant: ClockMode = "adaptive"                       # the clock mode
     episode_length_s: float = 20.0
     world: WorldConfig = field(default_factory=WorldConfig)
@@ -237,7 +237,6 @@ class LocoConfig:
         if self.terrain == "eval" and self.num_envs % trials:
             raise ValueError(f"LocoConfig.num_envs must be a multiple of {trials} (course kinds x levels) on the "
                              f"evaluation course, got {self.num_envs}")
-        self.world.num_envs, self.world.device = self.num_envs, self.device
 
     @property
     def uses_clock(self) -> bool:

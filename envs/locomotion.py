@@ -45,7 +45,7 @@ class LocoEnv(VecEnv):
 
         self.ground = Ground(cfg.terrain, N, self.device, seed=cfg.seed, course=cfg.course,
                              curriculum_rule=cfg.terrain_curriculum, rough=cfg.rough)
-        self.world = make_world(robot, cfg.world, self.ground.boxes)
+        self.world = make_world(robot, cfg.world, self.ground.boxes, num_envs=N, device=cfg.device)
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
         self.difficulty = Difficulty(cfg.difficulty, self.max_episode_length, self.device)

@@ -98,7 +98,7 @@ def test_pd_target_parity_with_the_env_with_the_clock_feedforward(variant, tmp_p
 def test_torque_parity_with_the_training_actuator():
     """On random states and targets, the deploy module's PD law with the gains the export writes (the robot's)
     equals the torque the training backend applies (nominal gains, the effort clamp active on some joints)."""
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=3, sim_dt=1e-7, capture=False, backend="mujoco"))
+    w = make_world(ADAM_LITE, WorldConfig(sim_dt=1e-7, capture=False, backend="mujoco"), num_envs=3)
     gen = torch.Generator().manual_seed(0)
     n, J = w.num_envs, ADAM_LITE.num_joints
     q = w.default_joint_q.clone()

@@ -45,7 +45,7 @@ def kin():
 @pytest.fixture(scope="module")
 def newton_and_fk(kin):
     """Newton (float32) and our FK on the same 8 random states: {body: (pos_err, rot_err)}, and the world."""
-    world = make_world(R, WorldConfig(num_envs=8, capture=False))
+    world = make_world(R, WorldConfig(capture=False), num_envs=8)
     gen = torch.Generator().manual_seed(0)
     pos, quat, q = random_states(world.num_envs, gen)
     world.reset(joint_q=torch.cat([pos, quat, q], dim=1))  # eval_fk runs inside reset: body_q is current

@@ -80,3 +80,30 @@ def test_shipped_onnx_with_its_data_file_acts_as_the_torchscript(folder, tmp_pat
     shutil.copy(folder / "policy.onnx", tmp_path / "policy.onnx")  # the graph alone, its weights left behind
     with pytest.raises(Exception):
         ort.InferenceSession(str(tmp_path / "policy.onnx"), providers=["CPUExecutionProvider"])
+
+
+@pytest.mark.parametrize("folder", [p.parent for p in POLICIES], ids=lambda p: p.name)
+def test_a_stored_config_with_the_worlds_old_size_and_device_still_loads(folder):
+    """Stored runs carry env.world.num_envs and .device (the world's size and device were WorldConfig fields before
+    they became make_world's): loading skips them, the task's own values stand, and other unknown keys still fail."""
+    import json
+
+    from cra_warp.config_io import from_data, to_data
+    from envs.loco_config import LocoConfig
+
+    env = json.loads((folder / "config.json").read_text())["env"]
+    assert {"num_envs", "device"} <= set(env["world"])
+    cfg = from_data(LocoConfig, env)
+    assert (cfg.num_envs, cfg.device, cfg.world.backend) == (env["num_envs"], env["device"], env["world"]["backend"])
+    assert "num_envs" not in to_data(cfg)["world"]
+    env["world"]["substep"] = 4
+    with pytest.raises(ValueError, match=r"world has no field\(s\) \['substep'\]"):
+        from_data(LocoConfig, env)
+
+
+def test_a_checkpoint_rebuilt_for_mujoco_on_cuda_is_refused_in_one_line():
+    from cra_warp.learning.checkpoint import CheckpointError
+    from envs.checkpoints import runner_for_checkpoint
+
+    with pytest.raises(CheckpointError, match="cannot be rebuilt .mujoco runs on the CPU only, got device 'cuda:0'"):
+        runner_for_checkpoint(POLICIES[0], device="cuda:0", sim="mujoco")

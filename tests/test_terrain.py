@@ -181,7 +181,7 @@ def stand_run():
           (t.centre[0] + (t.half_inner + t.half_platform) / 2, t.centre[1] + 0.8), math.pi)
 
     boxes = terrain_boxes(terrain)
-    world = make_world(R, WorldConfig(num_envs=len(s.rows)), boxes)
+    world = make_world(R, WorldConfig(), boxes, num_envs=len(s.rows))
     world.reset(joint_q=torch.stack(s.rows))
     q_ref = torch.stack(s.targets)
     stand = ScriptedStand(R)

@@ -77,7 +77,7 @@ def _stand_then_move(platforms, window):
     from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE as R
 
-    w = make_world(R, WorldConfig(num_envs=2, terrain_window=window), platforms)
+    w = make_world(R, WorldConfig(terrain_window=window), platforms, num_envs=2)
     q = w.default_joint_q.clone()
     q[:, 2] += 0.3 + 0.01
     w.reset(joint_q=q)

@@ -19,7 +19,7 @@ def backend(request):
 
 @pytest.fixture(scope="module")
 def world(backend):
-    return make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=backend, device=device_for(backend)))
+    return make_world(ADAM_LITE, WorldConfig(backend=backend), num_envs=4, device=device_for(backend))
 
 
 def sensor_lag(w: World) -> float:
@@ -40,10 +40,12 @@ def com_velocity(w: World) -> torch.Tensor:
 def test_config_errors_name_the_field():
     with pytest.raises(ValueError, match="substeps"):
         WorldConfig(substeps=3)
-    with pytest.raises(ValueError, match="num_envs"):
-        WorldConfig(num_envs=0)
+    # the size and device are make_world's, checked there before anything is built
+    for n in (0, 2.0, True):
+        with pytest.raises(ValueError, match="make_world: num_envs must be an integer >= 1"):
+            make_world(ADAM_LITE, num_envs=n)
     with pytest.raises(ValueError, match="CPU only"):
-        WorldConfig(backend="mujoco", device="cuda:0")
+        make_world(ADAM_LITE, WorldConfig(backend="mujoco"), num_envs=1, device="cuda:0")
     check_backend_device("mujoco", "cpu")
     check_backend_device("newton", "cuda:0")
     with pytest.raises(ValueError, match="mujoco runs on the CPU only, got device 'cuda:0'"):
@@ -51,11 +53,11 @@ def test_config_errors_name_the_field():
 
 
 def test_one_mjcf_is_the_model_the_mujoco_backend_runs(world):
-    """cra_warp.sim.mjcf is the one MJCF builder: one world whatever the config's size, device or backend, and its
+    """cra_warp.sim.mjcf is the one MJCF builder: one world whatever the config's backend or threads, and its
     bodies are the worlds' bodies in their order."""
     import re
 
-    xml = mjcf(ADAM_LITE, WorldConfig(num_envs=7, backend="mujoco"))
+    xml = mjcf(ADAM_LITE, WorldConfig(backend="mujoco", threads=3))
     assert xml == mjcf(ADAM_LITE)
     names = [b[len(ADAM_LITE.name) + 1:] for b in re.findall(r'<body name="([^"]+)"', xml)]
     assert {n: i for i, n in enumerate(names)} == world.body_index
@@ -160,7 +162,8 @@ def _rollout(w: World, reset_ids=None) -> torch.Tensor:
 def test_reset_of_a_subset_leaves_others_bitwise_untouched(world):
     plain = _rollout(world)
     d = world.joint_pos.device
-    other = make_world(ADAM_LITE, WorldConfig(num_envs=4, backend=world.cfg.backend, device=world.cfg.device))
+    other = make_world(ADAM_LITE, WorldConfig(backend=world.cfg.backend), num_envs=4,
+                       device=device_for(world.cfg.backend))
     with_reset = _rollout(other, reset_ids=torch.tensor([1, 3], device=d))
     assert torch.equal(plain[[0, 2]], with_reset[[0, 2]])
     assert not torch.equal(plain[[1, 3]], with_reset[[1, 3]])
@@ -215,7 +218,7 @@ def test_rotor_inertia_per_world_slows_the_joints_alike_on_both_engines():
     and both engines agree on how much each joint is slowed."""
     ratios = {}
     for backend in ("newton", "mujoco"):
-        w = make_world(ADAM_LITE, WorldConfig(num_envs=3, backend=backend, device=device_for(backend)))
+        w = make_world(ADAM_LITE, WorldConfig(backend=backend), num_envs=3, device=device_for(backend))
         d, J = w.joint_pos.device, ADAM_LITE.num_joints
         w.set_armature(torch.tensor([1], device=d), torch.full((1, J), 5.0, device=d))
         w.commit_physics()
@@ -236,7 +239,7 @@ def test_rotor_inertia_per_world_slows_the_joints_alike_on_both_engines():
 
 def test_all_bodies_colliding_with_the_ground_still_stand(backend):
     """contacts="all": every robot shape meets the terrain (falls then touch down on knees and hands)."""
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=2, contacts="all", backend=backend, device=device_for(backend)))
+    w = make_world(ADAM_LITE, WorldConfig(contacts="all", backend=backend), num_envs=2, device=device_for(backend))
     h0 = w.root_pos[:, 2].clone()
     stand_steps(w, 150)
     assert (w.root_pos[:, 2] - h0).abs().max() < 0.02
@@ -254,8 +257,8 @@ def test_applied_torque_is_the_explicit_pd_law_with_its_clamp(backend):
     is kp (q* - q) - kd qd clamped at the effort limit, evaluated at the state the physics step starts from. A
     near-zero time step keeps the state where it was set, so the law can be evaluated at the state after step()."""
     gen = torch.Generator().manual_seed(0)
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=4, sim_dt=1e-7, capture=False, backend=backend,
-                                          device=device_for(backend)))
+    w = make_world(ADAM_LITE, WorldConfig(sim_dt=1e-7, capture=False, backend=backend), num_envs=4,
+                   device=device_for(backend))
     n, J, d = w.num_envs, ADAM_LITE.num_joints, w.joint_pos.device
     rand = lambda *shape: torch.rand(*shape, generator=gen).to(d)  # noqa: E731  (drawn on the CPU: same draws)
     randn = lambda *shape: torch.randn(*shape, generator=gen).to(d)  # noqa: E731
@@ -282,7 +285,7 @@ def test_newton_and_mujoco_agree_on_a_trajectory():
     precision, and the closed loop feeds differences back)."""
     traj = {}
     for backend in ("newton", "mujoco"):
-        w = make_world(ADAM_LITE, WorldConfig(num_envs=2, backend=backend, device=device_for(backend)))
+        w = make_world(ADAM_LITE, WorldConfig(backend=backend), num_envs=2, device=device_for(backend))
         d = w.joint_pos.device
         w.reset()
         w.apply_impulse(torch.tensor([1], device=d), torch.tensor([[0.3, 0.1, 0.0]], device=d))
@@ -297,7 +300,7 @@ def test_newton_and_mujoco_agree_on_a_trajectory():
 def test_mujoco_backend_pending_writes_survive_other_resets_and_blow_ups_show():
     """A push written into one world reaches the sim even when another world is reset before the step; a world
     MuJoCo would silently reset (a state past its limits) comes back non-finite, for the task to reset and count."""
-    w = make_world(ADAM_LITE, WorldConfig(num_envs=3, backend="mujoco"))
+    w = make_world(ADAM_LITE, WorldConfig(backend="mujoco"), num_envs=3)
     w.reset()
     w.apply_impulse(torch.tensor([0]), torch.tensor([[1.0, 0.0, 0.0]]))
     w.reset(torch.tensor([2]))

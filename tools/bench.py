@@ -92,8 +92,8 @@ def _world_worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     # stairs: shared boxes, the very model MuJoCo C runs; rough: per-world windows of the course, as training does
     window = {} if spec["terrain"] == "rough" else {"terrain_window": None}
-    world = make_world(ADAM_LITE, WorldConfig(num_envs=n, device=spec["device"], backend=spec["backend"],
-                                              threads=spec.get("threads", 0), **window), terrain)
+    world = make_world(ADAM_LITE, WorldConfig(backend=spec["backend"], threads=spec.get("threads", 0), **window),
+                       terrain, num_envs=n, device=spec["device"])
     stand = ScriptedStand(ADAM_LITE, world.joint_pos.device)
     q = world.default_joint_q.clone()
     q[:, :3] += origins.to(q.device)

@@ -8,16 +8,21 @@ from robots.robot_config import RobotConfig
 __all__ = ["FREE_Q", "FREE_QD", "TerrainBoxes", "World", "WorldConfig", "check_backend_device", "make_world", "mjcf"]
 
 
-def make_world(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None) -> World:
-    """The backend ``cfg.backend`` names, built for ``robot`` on ``terrain`` (imported only when chosen)."""
+def make_world(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None, *,
+               num_envs: int, device: str = "cpu") -> World:
+    """``num_envs`` robots on ``terrain`` in the backend ``cfg.backend`` names (imported only when chosen), on
+    ``device``. The one place the world's size and device are checked."""
     cfg = cfg or WorldConfig()
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
+        raise ValueError(f"make_world: num_envs must be an integer >= 1, got {num_envs!r}")
+    check_backend_device(cfg.backend, device)
     if cfg.backend == "mujoco":
         from cra_warp.sim.mujoco import MujocoWorld
 
-        return MujocoWorld(robot, cfg, terrain)
+        return MujocoWorld(robot, cfg, terrain, num_envs)
     from cra_warp.sim.newton import NewtonWorld
 
-    return NewtonWorld(robot, cfg, terrain)
+    return NewtonWorld(robot, cfg, terrain, num_envs, device)
 
 
 def mjcf(robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None) -> str:

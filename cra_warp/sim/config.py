@@ -13,7 +13,7 @@ This module imports no simulator.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal, Protocol
+from typing import ClassVar, Literal, Protocol
 
 import numpy as np
 import torch
@@ -32,10 +32,12 @@ def check_backend_device(backend: str, device: str) -> None:
 
 @dataclass
 class WorldConfig:
-    """Physics settings of the batched world. Defaults are the ones benchmarked on the 2-core CPU."""
+    """Physics settings of the batched world. Defaults are the ones benchmarked on the 2-core CPU. The world's size
+    and device are make_world's arguments (a task owns them: LocoConfig.num_envs, .device), not settings here."""
 
-    num_envs: int = 64
-    device: str = "cpu"
+    # Fields of configs stored before the size and device moved out (env.world.num_envs, .device in config.json and
+    # checkpoints): from_data skips them; the task's own values were always the ones used.
+    RETIRED_FIELDS: ClassVar[tuple[str, ...]] = ("num_envs", "device")
     # "newton": Newton + mujoco_warp (CPU or CUDA, graph capture); "mujoco": MuJoCo C through mujoco.batch's
     # thread pool (CPU only), the same MjModel. Both run the same PD law and contact settings.
     backend: Literal["newton", "mujoco"] = "newton"
@@ -59,15 +61,12 @@ class WorldConfig:
     terrain_window: WindowConfig | None = field(default_factory=WindowConfig)
 
     def __post_init__(self):
-        if self.num_envs < 1:
-            raise ValueError(f"WorldConfig.num_envs must be >= 1, got {self.num_envs}")
         if self.substeps < 2 or self.substeps % 2:
             raise ValueError(f"WorldConfig.substeps must be even and >= 2 (the captured state swap), got {self.substeps}")
         if self.sim_dt <= 0:
             raise ValueError(f"WorldConfig.sim_dt must be > 0, got {self.sim_dt}")
         if self.backend not in ("newton", "mujoco"):
             raise ValueError(f"WorldConfig.backend must be newton or mujoco, got {self.backend!r}")
-        check_backend_device(self.backend, self.device)
 
     @property
     def env_dt(self) -> float:

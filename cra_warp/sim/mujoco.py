@@ -30,7 +30,7 @@ from mujoco.batch import Batch, SimulationError
 
 from cra_warp.rotations import quat_rotate, quat_rotate_inv
 from cra_warp.sim import mjcf
-from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig, check_backend_device
+from cra_warp.sim.config import FREE_Q, FREE_QD, TerrainBoxes, WorldConfig
 from robots.robot_config import RobotConfig
 
 _NO_SENSORS = int(mujoco.mjtDisableBit.mjDSBL_SENSOR)
@@ -49,14 +49,14 @@ def _xyzw_to_wxyz(q: torch.Tensor) -> torch.Tensor:
 
 
 class MujocoWorld:
-    """A batched MuJoCo C world of ``cfg.num_envs`` robots; see cra_warp.sim.config.World for the views."""
+    """A batched MuJoCo C world of ``num_envs`` robots on the CPU (built by make_world, which checks the size and
+    device); see cra_warp.sim.config.World for the views."""
 
-    def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
+    def __init__(self, robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None, num_envs: int):
         self.robot = robot
-        self.cfg = cfg = cfg or WorldConfig(backend="mujoco")
-        check_backend_device("mujoco", cfg.device)  # cfg may say another backend (its MJCF is the same)
+        self.cfg = cfg
         t0 = time.perf_counter()
-        self.num_envs = N = cfg.num_envs
+        self.num_envs = N = num_envs
         J, F = robot.num_joints, len(robot.foot_links)
         xml = mjcf(robot, cfg, terrain)
         prefix = f"{robot.name}_"

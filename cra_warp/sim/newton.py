@@ -30,7 +30,7 @@ from robots.robot_config import RobotConfig, robot_urdf_text
 
 
 class NewtonWorld:
-    """A batched Newton world of ``cfg.num_envs`` robots.
+    """A batched Newton world of ``num_envs`` robots on ``device`` (built by make_world, which checks them).
 
     Views (torch, on the sim's device, aliasing the sim's arrays):
       root_pos [N, 3], root_quat [N, 4] (xyzw), root_lin_vel [N, 3], root_ang_vel [N, 3] (world frame; the linear
@@ -41,18 +41,19 @@ class NewtonWorld:
       torque applied in the last physics step, after the effort clamp).
     """
 
-    def __init__(self, robot: RobotConfig, cfg: WorldConfig | None = None, terrain: TerrainBoxes | None = None):
+    def __init__(self, robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None, num_envs: int,
+                 device: str):
         self.robot = robot
-        self.cfg = cfg = cfg or WorldConfig()
-        self.device = wp.get_device(cfg.device)
+        self.cfg = cfg
+        self.device = wp.get_device(device)
         # Warp's work goes on torch's current stream: the task writes the views with torch ops, which CUDA orders on
         # that stream, and Warp's own stream would race them. The CPU has no streams (None: Warp's scopes no-op).
         self._stream = wp.stream_from_torch(torch.cuda.current_stream(str(self.device))) if self.device.is_cuda \
             else None
-        self.num_envs = N = cfg.num_envs
+        self.num_envs = N = num_envs
         t0 = time.perf_counter()
 
-        model, self._body_names = self._build_model(robot, cfg, terrain)
+        model, self._body_names = self._build_model(robot, cfg, terrain, N, device)
         self.model = model
         self.num_bodies = B = model.body_count // N
         nj = robot.num_joints
@@ -102,7 +103,7 @@ class NewtonWorld:
 
     # ---------------------------------------------------------------- building
     @staticmethod
-    def _build_model(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None):
+    def _build_model(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | None, num_envs: int, device: str):
         proto = newton.ModelBuilder()
         newton.solvers.SolverMuJoCo.register_custom_attributes(proto)
         proto.rigid_gap = cfg.contact_gap
@@ -146,13 +147,13 @@ class NewtonWorld:
         builder = newton.ModelBuilder()
         builder.rigid_gap = cfg.contact_gap
         builder.default_shape_cfg.gap = cfg.contact_gap
-        builder.replicate(proto, cfg.num_envs, spacing=(0.0, 0.0, 0.0))
+        builder.replicate(proto, num_envs, spacing=(0.0, 0.0, 0.0))
         builder.default_shape_cfg.mu = terrain_mu
         builder.add_ground_plane()
         if terrain is not None and not windowed:
             for c, h, q in zip(terrain.centers, terrain.half_extents, terrain.quats):
                 builder.add_shape_box(-1, xform=wp.transform(wp.vec3(*c), wp.quat(*q)), hx=h[0], hy=h[1], hz=h[2])
-        return builder.finalize(device=cfg.device), body_names
+        return builder.finalize(device=device), body_names
 
     @staticmethod
     def _buffer_sizes(cfg: WorldConfig, terrain: TerrainBoxes | None) -> tuple[int, int]:
@@ -351,8 +352,8 @@ def build_mjcf(robot: RobotConfig, cfg: WorldConfig, terrain: TerrainBoxes | Non
     import dataclasses
     import tempfile
 
-    one = dataclasses.replace(cfg, num_envs=1, device="cpu", capture=False, terrain_window=None, backend="newton")
-    model, _ = NewtonWorld._build_model(robot, one, terrain)
+    one = dataclasses.replace(cfg, capture=False, terrain_window=None, backend="newton")
+    model, _ = NewtonWorld._build_model(robot, one, terrain, 1, "cpu")
     nconmax, njmax = NewtonWorld._buffer_sizes(one, terrain)
     with tempfile.TemporaryDirectory() as tmp:
         path = f"{tmp}/model.xml"
