@@ -82,7 +82,7 @@ def _policies(a: EvalArgs):
     def stand(num_envs, overrides):
         with quiet_stdout():
             env = LocoEnv(LocoConfig(num_envs=num_envs, device=a.device, seed=a.seed,
-                                     world=WorldConfig(backend=a.sim or "newton"), **overrides))
+                                     world=WorldConfig(**({"backend": a.sim} if a.sim else {})), **overrides))
         return env, lambda obs, dones: env.stand_actions()
 
     def checkpoint(path):

@@ -84,7 +84,9 @@ def run(a: PlayArgs) -> dict:
         agent.reset = policy.reset
     else:
         overrides.setdefault("terrain", "flat")
-        world = WorldConfig(backend=a.sim or "newton", **({"terrain_window": None} if whole_course else {}))
+        # no --sim: WorldConfig's default backend (the one place it is named)
+        world = WorldConfig(**({"backend": a.sim} if a.sim else {}),
+                            **({"terrain_window": None} if whole_course else {}))
         env = LocoEnv(LocoConfig(num_envs=a.num_envs, device=a.device, variant=METHODS[a.variant].clock_mode,
                                  seed=a.seed, world=world, **overrides))
         agent = make_agent(a, env)
