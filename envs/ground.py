@@ -91,8 +91,8 @@ class Ground:
     def mean_level(self) -> float:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0
 
-    def mean_level_by_type(self) -> dict[str, float]:
+    def mean_level_by_type(self) -> dict[str, torch.Tensor]:
         """Mean level of the robots on each terrain type's columns, for the logs (pits are the ascents)."""
         if self.curriculum is None:
             return {}
-        return levels_by_type(self.curriculum.levels.cpu(), self.column_types)
+        return levels_by_type(self.curriculum.levels, self.column_types)

@@ -19,4 +19,4 @@ def test_rough_ground_takes_its_tiles_from_the_config_and_logs_levels_per_type()
     for name, level in by_type.items():
         on = torch.tensor([ground.column_types[c] == name for c in cur.cols.tolist()])
         assert level == pytest.approx(float(cur.levels[on].float().mean()))
-    assert len(set(by_type.values())) == 2  # the two types hold different levels here
+    assert len({float(v) for v in by_type.values()}) == 2  # the two types hold different levels here

@@ -237,7 +237,8 @@ def status(a: CampaignArgs) -> list[dict]:
         if infos.get("terrain_levels") is not None:
             tiles = from_data(TerrainConfig, (config.get("env") or {}).get("rough") or {})
             rec["terrain_level"] = sum(infos["terrain_levels"]) / len(infos["terrain_levels"])
-            rec["terrain_level_by_type"] = levels_by_type(infos["terrain_levels"], column_types(tiles))
+            rec["terrain_level_by_type"] = {k: float(v) for k, v in
+                                            levels_by_type(infos["terrain_levels"], column_types(tiles)).items()}
         records.append(rec)
     types = list(dict.fromkeys(t for r in records for t in r.get("terrain_level_by_type", {})))
     print(f"{'run':16} {'iter':>6} {'env steps':>10} " + " ".join(f"{t:>11}" for t in types))

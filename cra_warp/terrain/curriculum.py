@@ -35,18 +35,18 @@ from cra_warp.terrain import Terrain
 RULES = ("path", "reach")
 
 
-def levels_by_type(levels, column_types: tuple[str, ...]) -> dict[str, float]:
-    """Mean level [float] per terrain type of envs at ``levels`` [N], env i living on column i mod C (as
-    TerrainCurriculum places them) of a grid whose columns have ``column_types`` [C]; types no env is on are left
-    out. Pits ("stairs_down", "slope_down") are the ascents: their robots climb out."""
-    levels = torch.as_tensor(levels, dtype=torch.float32)
-    types = [column_types[c % len(column_types)] for c in range(len(levels))]
-    out = {}
-    for name in dict.fromkeys(column_types):
-        on = torch.tensor([t == name for t in types], dtype=torch.bool)
-        if on.any():
-            out[name] = float(levels[on].mean())
-    return out
+def levels_by_type(levels, column_types: tuple[str, ...]) -> dict[str, torch.Tensor]:
+    """Mean level (a 0-d tensor on ``levels``' device: no host sync) per terrain type of envs at ``levels`` [N],
+    env i living on column i mod C (as TerrainCurriculum places them) of a grid whose columns have
+    ``column_types`` [C]; types no env is on are left out. Pits ("stairs_down", "slope_down") are the ascents."""
+    levels = torch.as_tensor(levels).float()
+    names = list(dict.fromkeys(column_types))
+    type_of_col = torch.tensor([names.index(t) for t in column_types], device=levels.device)
+    kind = type_of_col[torch.arange(len(levels), device=levels.device) % len(column_types)]     # [N]
+    sums = torch.zeros(len(names), device=levels.device).index_add_(0, kind, levels)
+    counts = torch.bincount(kind, minlength=len(names))
+    present = {column_types[c] for c in range(min(len(levels), len(column_types)))}  # known on the host: no sync
+    return {n: sums[k] / counts[k] for k, n in enumerate(names) if n in present}
 
 
 class TerrainCurriculum:
