@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 
 from cra_warp.atomic_json import write_json
+from cra_warp.machine import cpu_info
 
 # (threads, epochs, mini-batches, compile mode, contrast variant, critic CNN strides, precision); the first row is
 # the default
@@ -137,24 +138,6 @@ def end_to_end(num_envs: int, iterations: int, processes: int, sim: str = "newto
             "num_envs": num_envs,
             "iterations": len(rows),
             "env_steps_per_s": mean(1), "collect_s": mean(2), "update_s": mean(3)}
-
-
-def cpu_info() -> dict:
-    """lscpu's model name and the flags that decide the update's precision (every figure records them)."""
-    import platform
-
-    model, flags = platform.processor(), []
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name") and model in ("", "x86_64"):
-                model = line.split(":", 1)[1].strip()
-            elif line.startswith("flags"):
-                flags = line.split(":", 1)[1].split()
-                break
-    except OSError:
-        pass
-    keep = ("avx2", "avx512f", "avx512_bf16", "amx_bf16", "amx_tile", "fma")
-    return {"model": model, "flags": [f for f in keep if f in flags], "cores": os.cpu_count()}
 
 
 # (part name, object attribute path, method) timed by the profile; "actor"/"critic" forwards are split into

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import os
-import platform
 import shlex
 import shutil
 import subprocess
@@ -33,6 +32,7 @@ from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
 from cra_warp.cli import UsageError, parse_args
+from cra_warp.machine import cpu_info
 
 ROOT = Path(__file__).resolve().parent.parent / "robots" / "adam_lite" / "campaigns"
 # cra-train arguments that belong to one start of a run, not to the run: resume sets its own.
@@ -53,16 +53,6 @@ class CampaignArgs:
     dry_run: bool = False                       # resume: print the commands, run nothing
     iteration: int | None = None                # status: each run's model_<iteration>.pt instead of its newest
     json: Path | None = None                    # status: write the table here
-
-
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def train_argv(args: dict) -> list[str]:
@@ -92,6 +82,12 @@ def _stored(path: Path) -> tuple[int, dict]:
     return int(saved["iter"]), config
 
 
+def _env_steps(it: int, config: dict) -> int:
+    """Env steps of a run whose checkpoint finished iteration ``it`` (counted from its start: a fork's parent not
+    included)."""
+    return (it + 1) * config.get("args", {}).get("num_envs", 0) * config.get("learner", {}).get("num_steps_per_env", 24)
+
+
 def save(a: CampaignArgs) -> Path:
     from train.train import newest_checkpoint
 
@@ -116,11 +112,10 @@ def save(a: CampaignArgs) -> Path:
         it, config = _stored(ckpt)
         (staging / label).mkdir()
         shutil.copy2(ckpt, staging / label / ckpt.name)
-        steps = (it + 1) * config["args"]["num_envs"] * config["learner"]["num_steps_per_env"]
-        runs[label] = {"checkpoint": f"{label}/{ckpt.name}", "iteration": it, "env_steps": steps,
+        runs[label] = {"checkpoint": f"{label}/{ckpt.name}", "iteration": it, "env_steps": _env_steps(it, config),
                        "args": config["args"]}
-    manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"), "cpu": cpu_model(),
-                "runs": runs}
+    manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
+                "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
     (staging / "RESUME.md").write_text(resume_md(manifest))
     # swap in one step: the old folder is removed only once the new one is complete
@@ -160,12 +155,17 @@ Then, before the session ends, save the newest checkpoints back here (this repla
 """
 
 
-def resume(a: CampaignArgs) -> int:
+def _manifest(a: CampaignArgs) -> tuple[Path, dict]:
+    """The committed campaign's folder and campaign.json; a one-line error naming those that exist if none."""
     folder = a.root / a.name
     if not (folder / "campaign.json").is_file():
-        have = sorted(p.name for p in a.root.glob("*/campaign.json")) if a.root.is_dir() else []
+        have = sorted(p.parent.name for p in a.root.glob("*/campaign.json")) if a.root.is_dir() else []
         raise UsageError(f"no campaign {a.name!r} under {a.root} (have: {', '.join(have) or 'none'})")
-    manifest = json.loads((folder / "campaign.json").read_text())
+    return folder, json.loads((folder / "campaign.json").read_text())
+
+
+def resume(a: CampaignArgs) -> int:
+    folder, manifest = _manifest(a)
     out = a.out or Path.home() / "cra_runs" / a.name
     procs = []
     unknown = set(a.only) - set(manifest["runs"])
@@ -220,19 +220,15 @@ def status(a: CampaignArgs) -> list[dict]:
                 raise UsageError(f"{run}: no model_{a.iteration if a.iteration is not None else '<it>'}.pt under it")
             found[run.name] = ckpt
     else:
-        folder = a.root / a.name
-        if not (folder / "campaign.json").is_file():
-            raise UsageError(f"no campaign {a.name!r} under {a.root}: name one, or give run directories")
-        found = {k: folder / r["checkpoint"] for k, r in json.loads((folder / "campaign.json").read_text())["runs"].items()}
+        folder, manifest = _manifest(a)
+        found = {k: folder / r["checkpoint"] for k, r in manifest["runs"].items()}
     records = []
     for label, ckpt in found.items():
         saved = read_checkpoint(ckpt)
         infos = saved.get("infos") or {}
         config = infos.get("config") or {}
         it = int(saved["iter"])
-        rec = {"run": label, "checkpoint": str(ckpt), "iteration": it,
-               "env_steps": (it + 1) * config.get("args", {}).get("num_envs", 0)
-               * config.get("learner", {}).get("num_steps_per_env", 24),
+        rec = {"run": label, "checkpoint": str(ckpt), "iteration": it, "env_steps": _env_steps(it, config),
                "difficulty": infos.get("difficulty_level")}
         if infos.get("terrain_levels") is not None:
             tiles = from_data(TerrainConfig, (config.get("env") or {}).get("rough") or {})
@@ -247,7 +243,7 @@ def status(a: CampaignArgs) -> list[dict]:
         print(f"{r['run']:16} {r['iteration']:6d} {r['env_steps'] / 1e6:9.2f}M "
               + " ".join(f"{by[t]:11.2f}" if t in by else f"{'-':>11}" for t in types))
     if a.json:
-        write_json(a.json, {"campaign": a.name, "cpu": cpu_model(), "runs": records}, indent=2)
+        write_json(a.json, {"campaign": a.name, "cpu": cpu_info()["model"], "runs": records}, indent=2)
     return records
 
 

@@ -28,6 +28,8 @@ slopes down higher); the path rule stays the default (README, "Why it does not c
 
 from __future__ import annotations
 
+import functools
+
 import torch
 
 from cra_warp.terrain import Terrain
@@ -35,17 +37,24 @@ from cra_warp.terrain import Terrain
 RULES = ("path", "reach")
 
 
+@functools.lru_cache(maxsize=8)
+def _env_types(num_envs: int, column_types: tuple[str, ...], device: torch.device):
+    """(type names, type index of each env [N], names some env is on): env i lives on column i mod C."""
+    names = tuple(dict.fromkeys(column_types))
+    of_col = torch.tensor([names.index(t) for t in column_types], device=device)
+    kind = of_col[torch.arange(num_envs, device=device) % len(column_types)]
+    return names, kind, {column_types[c] for c in range(min(num_envs, len(column_types)))}
+
+
 def levels_by_type(levels, column_types: tuple[str, ...]) -> dict[str, torch.Tensor]:
     """Mean level (a 0-d tensor on ``levels``' device: no host sync) per terrain type of envs at ``levels`` [N],
     env i living on column i mod C (as TerrainCurriculum places them) of a grid whose columns have
-    ``column_types`` [C]; types no env is on are left out. Pits ("stairs_down", "slope_down") are the ascents."""
+    ``column_types`` [C]; types no env is on are left out. Pits ("stairs_down", "slope_down") are the ascents.
+    Called at every logged reset: the env-to-type map is built once per (N, columns, device)."""
     levels = torch.as_tensor(levels).float()
-    names = list(dict.fromkeys(column_types))
-    type_of_col = torch.tensor([names.index(t) for t in column_types], device=levels.device)
-    kind = type_of_col[torch.arange(len(levels), device=levels.device) % len(column_types)]     # [N]
+    names, kind, present = _env_types(len(levels), tuple(column_types), levels.device)
     sums = torch.zeros(len(names), device=levels.device).index_add_(0, kind, levels)
     counts = torch.bincount(kind, minlength=len(names))
-    present = {column_types[c] for c in range(min(len(levels), len(column_types)))}  # known on the host: no sync
     return {n: sums[k] / counts[k] for k, n in enumerate(names) if n in present}
 
 
