@@ -23,14 +23,15 @@ STEPS = 8
 
 
 def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=None,
-                max_samples=2048, contrast=None, privileged_slices=None, critic_warmup=0, batched_values=True, **env_kw):
+                max_samples=2048, contrast=None, privileged_slices=None, critic_warmup=0, batched_values=True,
+                critic_warmup_learning_rate=None, **env_kw):
     torch.manual_seed(seed)
     env = env or DummyEnv(num_envs, seed=seed, **env_kw)
     slices = env.privileged_slices if privileged_slices is None else privileged_slices
     cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=slices,
                         contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches),
-                        critic_warmup=critic_warmup)
+                        critic_warmup=critic_warmup, critic_warmup_learning_rate=critic_warmup_learning_rate)
     train_cfg = runner_cfg(cfg)
     train_cfg["algorithm"]["batched_values"] = batched_values  # False: rsl-rl's per-step critic
     return OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu"), env
@@ -203,8 +204,9 @@ def test_ppo_update_variants(variant):
 
 def test_critic_warmup_holds_the_actor(tmp_path):
     """The first updates train critic and heads only, at a fixed learning rate; the next one moves the actor. A
-    resume continues the warm-up, a fork (actor and critic loaded, no optimizer) starts its own."""
-    runner, env = make_runner(critic_warmup=2)
+    resume continues the warm-up, a fork (actor and critic loaded, no optimizer) starts its own. The warm-up fits
+    the critic at its own rate without PPO's value clip."""
+    runner, env = make_runner(critic_warmup=2, critic_warmup_learning_rate=5e-3)
     alg = runner.alg
     lr0 = alg.learning_rate
 
@@ -215,11 +217,16 @@ def test_critic_warmup_holds_the_actor(tmp_path):
         return [any(not torch.equal(v, m.state_dict()[n]) for n, v in b.items())
                 for b, m in zip(before, (alg.actor, alg.critic, alg.heads))]
 
+    seen = []  # (rate, value clip) each mini-batch step of the warm-up sees
+    step = alg.optimizer.step
+    alg.optimizer.step = lambda *a, **k: (seen.append((alg.optimizer.param_groups[0]["lr"],
+                                                        alg.use_clipped_value_loss)), step(*a, **k))[1]
     for left in (1, 0):
         collect(alg, env, STEPS)
         before = snapshot()
         alg.update()
         assert moved(before) == [False, True, True] and alg.critic_warmup_left == left
+        assert set(seen) == {(5e-3, False)} and alg.use_clipped_value_loss  # its own rate, unclipped, restored
         assert alg.learning_rate == lr0 and all(g["lr"] == lr0 for g in alg.optimizer.param_groups)
         assert all(p.requires_grad for p in alg.actor.parameters())
     collect(alg, env, STEPS)
@@ -238,6 +245,8 @@ def test_critic_warmup_holds_the_actor(tmp_path):
     assert (resumed.alg.critic_warmup_left, forked.alg.critic_warmup_left) == (2, 3)
     with pytest.raises(ValueError, match="critic_warmup must be >= 0"):
         make_runner(critic_warmup=-1)
+    with pytest.raises(ValueError, match="critic_warmup_learning_rate must be > 0"):
+        make_runner(critic_warmup=1, critic_warmup_learning_rate=0.0)
 
 
 def test_contrast_sample_cap():

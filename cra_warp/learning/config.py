@@ -195,6 +195,9 @@ class LearnerConfig:
     # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
     fork_learning_rate: float = 5e-5
     fork_critic_warmup: int = 10
+    # The warm-up's rate and value loss: unclipped at ppo.learning_rate (CRAPPO.update says why); None = the run's
+    # rate with PPO's clip, as before
+    critic_warmup_learning_rate: float | None = 1e-3
     # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
     # maps come from the task (the runner reads them off the env).
     symmetry_weight: float = 0.0
@@ -274,5 +277,6 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                       "actor_obs_slice": list(cfg.privileged_slices["observation"])
                       if "observation" in cfg.privileged_slices else None,
                       "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup,
+                      "critic_warmup_learning_rate": cfg.critic_warmup_learning_rate,
                       "symmetry_weight": cfg.symmetry_weight},
     }

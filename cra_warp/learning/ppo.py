@@ -93,7 +93,8 @@ class CRAPPO(PPO):
 
     def __init__(self, actor, critic, storage, contrast_cfg: dict | ContrastConfig | None = None,
                  representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
-                 critic_warmup: int = 0, batched_values: bool = True, whole_env_update: bool = False,
+                 critic_warmup: int = 0, critic_warmup_learning_rate: float | None = None,
+                 batched_values: bool = True, whole_env_update: bool = False,
                  symmetry_weight: float = 0.0, mirror: dict | None = None, **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
         # batched values need our CRACritic with a GRU; the whole-env update also a GRU CRAActor
@@ -111,6 +112,10 @@ class CRAPPO(PPO):
         if critic_warmup < 0:
             raise ValueError(f"critic_warmup must be >= 0 updates, got {critic_warmup}")
         self.critic_warmup_left = critic_warmup  # updates that still hold the actor (saved: a resume continues)
+        # the warm-up's own rate (None: the run's rate); the critic alone takes it, so the actor's rate need not
+        if critic_warmup_learning_rate is not None and not critic_warmup_learning_rate > 0:
+            raise ValueError(f"critic_warmup_learning_rate must be > 0, got {critic_warmup_learning_rate}")
+        self.critic_warmup_learning_rate = critic_warmup_learning_rate
         cfg = contrast_cfg if isinstance(contrast_cfg, ContrastConfig) else ContrastConfig(**(contrast_cfg or {}))
         self.contrast_cfg = cfg
         self.heads: ContrastiveHeads | None = None
@@ -224,20 +229,30 @@ class CRAPPO(PPO):
         # update only), so the policy that collects the data is the one being evaluated. The adaptive schedule
         # would multiply the learning rate by 1.5 every mini-batch (the KL of a held actor is rounding noise above
         # 0) and hand the actor a rate far too high when the warm-up ends: it stays put.
+        # A fresh critic is also far from returns in the hundreds: PPO's value clip (0.2 per sample and update) and
+        # a fork's slow rate would keep it from them for hundreds of iterations, so the warm-up fits it unclipped
+        # at critic_warmup_learning_rate.
         actor = self._raw_actor
         actor_params = [p for p in actor.parameters() if p.requires_grad]
         schedule, self.schedule = self.schedule, "fixed"
+        clipped, self.use_clipped_value_loss = self.use_clipped_value_loss, False
         normalization, actor.obs_normalization = actor.obs_normalization, False
+        self._set_learning_rate(self.critic_warmup_learning_rate or self.learning_rate)
         for p in actor_params:
             p.requires_grad_(False)
         try:
             loss_dict = self._update()
         finally:
-            self.schedule, actor.obs_normalization = schedule, normalization
+            self.schedule, self.use_clipped_value_loss, actor.obs_normalization = schedule, clipped, normalization
+            self._set_learning_rate(self.learning_rate)
             for p in actor_params:
                 p.requires_grad_(True)
         self.critic_warmup_left -= 1
         return loss_dict
+
+    def _set_learning_rate(self, rate: float) -> None:
+        for group in self.optimizer.param_groups:
+            group["lr"] = rate
 
     def _update(self) -> dict[str, float]:
         if self.whole_env_update:
