@@ -31,9 +31,9 @@ def make_runner(variant="same_step", num_envs=8, seed=0, mini_batches=2, env=Non
     cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=slices,
                         contrast=ContrastConfig(variant=variant, max_samples=max_samples, **(contrast or {})),
                         ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches),
-                        critic_warmup=critic_warmup, critic_warmup_learning_rate=critic_warmup_learning_rate)
+                        critic_warmup=critic_warmup, critic_warmup_learning_rate=critic_warmup_learning_rate,
+                        batched_values=batched_values)  # False: rsl-rl's per-step critic
     train_cfg = runner_cfg(cfg)
-    train_cfg["algorithm"]["batched_values"] = batched_values  # False: rsl-rl's per-step critic
     return OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu"), env
 
 

@@ -19,9 +19,9 @@ def make(batched_values: bool, variant="same_step", num_envs=8, seed=0, done_pro
     env = DummyEnv(num_envs, seed=seed, done_prob=done_prob)
     cfg = LearnerConfig(num_steps_per_env=STEPS, privileged_slices=env.privileged_slices,
                         contrast=ContrastConfig(variant=variant),
-                        ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches, use_mixed_precision=bf16))
+                        ppo=PPOConfig(num_learning_epochs=2, num_mini_batches=mini_batches, use_mixed_precision=bf16),
+                        batched_values=batched_values)
     train_cfg = runner_cfg(cfg)
-    train_cfg["algorithm"]["batched_values"] = batched_values
     return OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu").alg, env
 
 

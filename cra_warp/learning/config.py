@@ -201,6 +201,11 @@ class LearnerConfig:
     # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
     # maps come from the task (the runner reads them off the env).
     symmetry_weight: float = 0.0
+    # How the update reads the rollout (CRAPPO): the critic's values in one pass over the whole rollout after
+    # collection (equal to rsl-rl's per-step values, tests/test_learning.py; False: rsl-rl's per step), and
+    # mini-batches of whole environments without padding (equal to rsl-rl's padded ones; slower on our CPUs)
+    batched_values: bool = True
+    whole_env_update: bool = False
     # The privileged group already holds the noise-free actor observation, so the critic needs no "policy".
     obs_groups: dict[str, list[str]] = field(default_factory=lambda: {
         "actor": ["policy"], "critic": ["privileged", "height_map"]})
@@ -278,5 +283,6 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                       if "observation" in cfg.privileged_slices else None,
                       "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup,
                       "critic_warmup_learning_rate": cfg.critic_warmup_learning_rate,
-                      "symmetry_weight": cfg.symmetry_weight},
+                      "symmetry_weight": cfg.symmetry_weight,
+                      "batched_values": cfg.batched_values, "whole_env_update": cfg.whole_env_update},
     }
