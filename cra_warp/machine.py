@@ -22,4 +22,12 @@ def cpu_info() -> dict:
     except OSError:
         pass
     keep = ("avx2", "avx512f", "avx512_bf16", "amx_bf16", "amx_tile", "fma")
-    return {"model": model, "flags": [f for f in keep if f in flags], "cores": os.cpu_count()}
+    info = {"model": model, "flags": [f for f in keep if f in flags], "cores": os.cpu_count()}
+    # the instruction set torch's kernels and oneDNN actually use: ATEN_CPU_CAPABILITY / ONEDNN_MAX_CPU_ISA can hold
+    # them below the CPU's (an AVX2-only machine measured on an AVX-512 one)
+    import torch
+
+    info["torch_isa"] = torch.backends.cpu.get_cpu_capability()
+    if os.environ.get("ONEDNN_MAX_CPU_ISA"):
+        info["onednn_max_isa"] = os.environ["ONEDNN_MAX_CPU_ISA"]
+    return info

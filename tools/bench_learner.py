@@ -352,7 +352,7 @@ def profile(terrains, sizes, iterations: int, bf16: bool, torch_profile: bool, l
 def print_ratio_table(records: list[dict], cpu: dict) -> None:
     """The headline: end-to-end training over the full task's own rate at the same N, one core."""
     print(f"\ncra-train end to end over the task alone, one core, MuJoCo backend, CPU seconds: {cpu['model']} "
-          f"({' '.join(cpu['flags'])})")
+          f"({' '.join(cpu['flags'])}; torch kernels {cpu.get('torch_isa', '?')})")
     print(f"{'terrain':>7} {'N':>5} {'update':>6} {'end to end':>10} {'task alone':>10} {'ratio':>6} {'at peak':>7}")
     for r in records:
         print(f"{r['terrain']:>7} {r['num_envs']:5d} {'bf16' if r['bf16'] else 'fp32':>6} "
