@@ -189,18 +189,26 @@ def test_play_draws_robot_0_into_a_gif(tmp_path):
     import numpy as np
     from PIL import Image
 
+    from cra_warp import video
+
     gif = tmp_path / "stand.gif"
     assert play_cli.main(["--agent", "stand", "--num-envs", "2", "--steps", "20", "--sim", "mujoco",
                           "--video", str(gif)]) == 0
     im = Image.open(gif)
-    assert im.n_frames == 10 and im.size == (320, 240)  # every other 50 Hz step: 25 frames/s
+    assert im.n_frames == 10 and im.size == (640, 360) == video.SIZE[::-1]  # every other 50 Hz step: 25 frames/s
+    assert gif.stat().st_size < 40_000 * im.n_frames, "one shared palette, no dither: a README-sized file"
     im.seek(im.n_frames - 1)
     rgb = np.asarray(im.convert("RGB")).astype(int)
-    bone = (rgb.min(-1) > 110) & (rgb.max(-1) - rgb.min(-1) < 30)  # the skeleton's light grey capsules
-    bone[:40] = False                                                # not the caption
-    cols = bone.any(0).nonzero()[0]
-    assert bone.sum() > 300, "no robot drawn"
-    assert 100 < cols.mean() < 220, "the tracking camera keeps the robot near the image centre"
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    limb = ((b - r > 60) & (b > 120)) | ((r - b > 120) & (r > 150))  # the skeleton's blue left and orange right
+    limb[:50] = False                                                 # not the caption
+    cols = limb.any(0).nonzero()[0]
+    assert limb.sum() > 1500, "no robot drawn"
+    assert 220 < cols.mean() < 420, "the camera keeps the robot near the image centre"
+    floor = rgb[250:][~limb[250:]].mean(-1)  # the lower third, robot excluded: the floor under the camera
+    lo, hi = np.percentile(floor, [5, 95])
+    assert hi - lo > 40, f"a checker floor of light and dark checks, not one flat colour ({lo:.0f}..{hi:.0f})"
+    assert len(np.unique(rgb[250:].reshape(-1, 3), axis=0)) >= 8, "a lit floor with its checks and the robot's shadow"
 
 
 def test_play_rejects_a_video_it_cannot_write(capsys, tmp_path):
@@ -273,14 +281,20 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     assert stored["args"]["recipe"] == stored["recipe"]["name"] == "walk" and ckpt["infos"]["recipe"] == "walk"
     assert stored["recipe"]["overrides"]["gait.stride_feedforward"] == stored["env"]["gait"]["stride_feedforward"]
     assert stored["env"]["world"]["backend"] == "newton"
+    # the robot by name with its numbers in env, and what the task read of it (joint groups, stand) beside it
+    assert stored["env"]["robot"] == "adam_lite" and stored["env"]["fall_height"] == 0.45
+    assert stored["loco_robot"]["swing_joints"][0][0] == "hipPitch_Left" and "stand_kp" not in stored["robot"]
     assert stored["learner"]["ppo"]["num_learning_epochs"] == train_cli.TrainArgs().epochs == 2
     # a stored setting that differs from today's defaults is what the rebuilt env gets
     ckpt["infos"]["config"]["env"]["obs"]["yaw_rate_filter_tau"] = 0.35
     ckpt["infos"]["config"]["learner"]["ppo"]["gamma"] = 0.98
+    ckpt["infos"]["config"]["env"]["fall_height"] = 0.4          # not the robot's number: the stored one stands
+    del ckpt["infos"]["config"]["env"]["robot"]                  # as runs stored before the field: Adam Lite
     odd = tmp_path / "model_odd.pt"
     torch.save(ckpt, odd)
     runner, env = runner_for_checkpoint(odd, num_envs=2)
     assert env.cfg.obs.yaw_rate_filter_tau == 0.35 and runner.alg.gamma == 0.98 and env.num_envs == 2
+    assert env.cfg.fall_height == 0.4 and env.cfg.robot == "adam_lite"
     # an actor layout of another version of the code
     ckpt["infos"]["config"]["layout"]["actor"]["gait_phase"] = [80, 82]
     torch.save(ckpt, odd)

@@ -21,7 +21,7 @@ import tyro
 from tyro.conf import Positional
 
 from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args
-from cra_warp.video import RolloutVideo, check_gif_path
+from cra_warp.video import FPS, RolloutVideo, check_gif_path
 from envs.methods import METHODS, Method, Task
 
 
@@ -93,7 +93,7 @@ def run(a: PlayArgs) -> dict:
     viewer = None
     if a.usd is not None:
         viewer = env.world.usd_recorder(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
-    gif, falls_0, every = None, 0, max(1, round(1 / (25 * env.dt)))
+    gif, falls_0, every = None, 0, max(1, round(1 / (FPS * env.dt)))
     if a.video is not None:
         gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (every * env.dt))
     held = None

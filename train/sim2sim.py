@@ -273,7 +273,7 @@ def run(a: Sim2SimArgs) -> dict:
         for r in range(a.trials):
             records.append(trial.run(speed, a.seconds, a.seed + r, frames if not records else None))
     if frames:
-        video.save_gif(frames, a.video, fps=25)
+        video.save_gif(frames, a.video, fps=video.FPS)
     success = float(np.mean([not r["fell"] for r in records]))
     errs = [r["tracking_error"] for r in records if r["tracking_error"] is not None]
     err = float(np.mean(errs)) if errs else None
