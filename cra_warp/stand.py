@@ -3,7 +3,7 @@
 The robot's drives run tau = kp (q* - q) - kd qd (clamped); its ankle pitch gains are too soft for a passive stand.
 Two parts, both acting through the targets q* only (the PD law stays the robot's):
 
-- every driven joint but the ankles emulates the stand gains (Ks, Ds) of the robot config about q_ref:
+- every driven joint but the ankles emulates the stand gains (Ks, Ds) of its StandConfig about q_ref:
   q* = q + (Ks (q_ref - q) - (Ds - kd) qd) / kp, so that kp (q* - q) - kd qd = Ks (q_ref - q) - Ds qd
   (q* = q_ref where the stand gains are the robot's own; joints with kp = 0 get q_ref);
 - each ankle pitch joint pushes the whole-body CoM over the sole centres: tau = K e + D de/dt, e = forward
@@ -20,25 +20,27 @@ from __future__ import annotations
 import torch
 
 from cra_warp.rotations import quat_rotate, quat_rotate_inv, yaw, yaw_quat
+from robots.loco_robot import StandConfig
 from robots.robot_config import RobotConfig
 
 GRAVITY = 9.81
 
 
 class ScriptedStand:
-    """``targets(world) -> q*`` [N, J] for the robots of a world (any object with the World views)."""
+    """``targets(world) -> q*`` [N, J] for the robots of a world (any object with the World views): ``robot`` as the
+    world drives it (its kp, kd), ``stand`` the gains to emulate and the ankles that balance."""
 
-    def __init__(self, robot: RobotConfig, device: str | torch.device = "cpu"):
+    def __init__(self, robot: RobotConfig, stand: StandConfig, device: str | torch.device = "cpu"):
         d = dict(device=device, dtype=torch.float32)
         self.q_ref = torch.tensor(robot.default_q, **d)
         kp, kd = torch.tensor(robot.kp, **d), torch.tensor(robot.kd, **d)
-        stand_kp = torch.tensor(robot.stand_kp or robot.kp, **d)
-        stand_kd = torch.tensor(robot.stand_kd or robot.kd, **d)
+        stand_kp = torch.tensor(stand.kp or robot.kp, **d)
+        stand_kd = torch.tensor(stand.kd or robot.kd, **d)
         self._driven = kp > 0
         self._inv_kp = torch.where(self._driven, 1.0 / kp.clamp(min=1e-9), 0.0)
         self._stiff = stand_kp * self._inv_kp          # Ks / kp
         self._damp = (stand_kd - kd) * self._inv_kp    # (Ds - kd) / kp
-        self._ankles = torch.tensor([robot.joint_names.index(n) for n in robot.ankle_pitch_joints], device=device,
+        self._ankles = torch.tensor([robot.joint_names.index(n) for n in stand.ankle_pitch_joints], device=device,
                                     dtype=torch.long)
         self._foot_links = robot.foot_links
         self._sole = torch.tensor(robot.sole_offset, **d)

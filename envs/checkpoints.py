@@ -69,8 +69,8 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
 
 # What a policy was trained against that today's code also defines: the robot's actuation and pose, and the
 # observation layouts. A difference means the policy would run on another robot or read shifted inputs.
-ROBOT_FIELDS = ("joint_names", "default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper",
-                "action_scale", "armature")
+ROBOT_FIELDS = ("name", "joint_names", "default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower",
+                "pos_upper", "action_scale", "armature")
 
 
 def check_against_today(path, stored: dict, env) -> None:

@@ -1,19 +1,24 @@
-"""Configuration of the Adam Lite locomotion task (paper III-A, III-C, III-D, IV-A).
+"""Configuration of the locomotion task (paper III-A, III-C, III-D, IV-A).
 
 Where the paper is silent we take what the legged-locomotion field does; every such choice is written here:
 - Control: policy at 50 Hz (env step 0.02 s = 4 x 0.005 s physics steps, the vendor's Isaac Gym setting).
   q* = q_ref + s_j * a_j with a per-joint scale s_j = 0.5 effort_j / kp_j (capped at 1 rad; see
   action_scale_effort); actions clipped to +-clip_joint_actions and the three gait actions to +-1 (with alpha 0.5 the gait rate stays within 0.5x..1.5x).
-- "Average angular speed" (one actor input) is the low-pass filtered yaw rate, as in the vendor's Adam Lite
+- "Average angular speed" (one actor input) is the low-pass filtered yaw rate, as in the vendor's (PNDbotics')
   policies whose per-frame observation has the same order as the paper's (filter time constant below).
 - Observation scales are the vendor's (angular velocity 0.25, joint velocity 0.05, command (2, 2, 0.25)); uniform
   noise as in legged_gym, on the actor's observation only (the critic sees it without noise).
 - Total reward r = sum_i w_i r_i per env step, no dt scaling (the paper's formula), clipped at 0 from below
-  (``only_positive_rewards``, as legged_gym and the vendor's Adam Lite config do): with Table I's penalties a
+  (``only_positive_rewards``, as legged_gym and the vendor's config do): with Table I's penalties a
   young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
-- Episodes last 20 s; a robot has fallen when its pelvis is less than 0.45 m above the ground under it or its
+- Episodes last 20 s; a robot has fallen when its pelvis is less than fall_height above the ground under it or its
   base is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
-- Actuators: the robot's explicit PD (robots/adam_lite/config.py, cra_warp.sim) at every 5 ms physics step.
+- The robot is a name (``robot``) in the registry robots.ROBOTS: its RobotConfig (joints, drives, limits) and its
+  LocoRobotConfig (the joint groups the rewards and the clock read, the scripted stand's gains, and the numbers at
+  its size: base height and clearance targets, feet distance, contact force threshold, fall height). A field of
+  those numbers left unset (None) takes the robot's when the config is made, so a stored run holds the numbers it
+  trained with. Both sit with the robot (robots/<robot>/), as mjlab keeps tasks/<task>/config/<robot>/.
+- Actuators: the robot's explicit PD (its RobotConfig, cra_warp.sim) at every 5 ms physics step.
 - Physical randomisation (mass, CoM, motor strength, PD gains +-20%, friction) is resampled per env at every
   reset; pushes and external forces come on per-env timers during episodes. An optional difficulty curriculum
   (DifficultyConfig, envs/difficulty.py) starts with small commands and/or the nominal robot and widens both as
@@ -24,13 +29,14 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   s, c add the offsets d1, d2, which the policy sees in its previous action; (s, c) themselves would not tell
   phi from 0.5 - phi whenever d1 = d2 (always in fixed_cycle).
 - Clock modes (LocoConfig.variant; envs/methods.py maps methods to them): "adaptive" (ours), "fixed_cycle" (the
-  gait actions are ignored, so the clock runs at T_cycle with zero offsets; the action stays 26-dim so the network
-  is the same as ours), "clock_free" (no clock inputs and no gait actions: actor observation 79, action 23; the
-  contact-pattern reward is off).
+  gait actions are ignored, so the clock runs at T_cycle with zero offsets; the action keeps its 3 gait entries so
+  the network is the same as ours), "clock_free" (no clock inputs and no gait actions: actor observation and action
+  5 and 3 smaller; the contact-pattern reward is off).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -39,6 +45,7 @@ from cra_warp.terrain import TerrainConfig
 from cra_warp.terrain.course import EvalCourseConfig
 from cra_warp.terrain.curriculum import RULES as CURRICULUM_RULES
 from cra_warp.sim import WorldConfig
+from robots import robot_by_name
 
 # the gait clock a method runs (envs/methods.py); stored as LocoConfig.variant, the name every config.json uses
 ClockMode = Literal["adaptive", "fixed_cycle", "clock_free"]
@@ -79,12 +86,13 @@ class RewardConfig:
     weights: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_WEIGHTS))
     tracking_sigma: float = 0.25
     torso_sigma: float = 0.1
-    base_height_target: float = 0.88                 # [m] pelvis above the soles (the vendor's reward target)
-    feet_clearance_target: float = 0.08              # [m] swing-foot sole height above the ground
+    # None: the robot's (its LocoRobotConfig), filled in when the LocoConfig is made (ROBOT_REWARD_NUMBERS)
+    base_height_target: float | None = None          # [m] pelvis above the soles
+    feet_clearance_target: float | None = None       # [m] swing-foot sole height above the ground
     yaw_bias_tau: float = 1.0                        # [s] low-pass of the yaw-rate error yaw_bias penalises
     stall_min_command: float = 0.2                   # [m/s] stall counts only under a planar command this fast
-    feet_min_lateral_distance: float = 0.2           # d_min [m]
-    contact_force_threshold: float = 700.0           # F_th [N], ~1.2 x body weight
+    feet_min_lateral_distance: float | None = None   # d_min [m]
+    contact_force_threshold: float | None = None     # F_th [N]
     soft_limit: float = 0.9                          # joint position/velocity/torque limits at 90% of the range
     contact_threshold: float = 5.0                   # [N] a foot with more vertical force is in contact
     power_floor: float = 0.1                         # keeps the joint-power ratio finite for a standing robot
@@ -188,6 +196,8 @@ class DifficultyConfig:
 
 @dataclass
 class LocoConfig:
+    # a name in robots.ROBOTS; this default is also the robot of every stored run written before the field existed
+    robot: str = "adam_lite"
     num_envs: int = 64                                    # the world's size and device: LocoEnv hands them to
     device: str = "cpu"                                   # make_world (WorldConfig holds physics settings only)
     variant: ClockMode = "adaptive"                       # the clock mode
@@ -216,11 +226,12 @@ class LocoConfig:
     # PD gains other than the robot's, {joint or joint without side: [kp, kd]} (RobotConfig.with_gains), for
     # studies of the actuator; the run's stored robot, its checks and the deploy JSON carry the gains trained with.
     joint_gains: dict[str, tuple[float, float]] = field(default_factory=dict)
-    fall_height: float = 0.45                             # [m] pelvis above the ground under it
+    fall_height: float | None = None                      # [m] pelvis above the ground under it; None: the robot's
     fall_gravity_z: float = -0.5                          # base-frame gravity z above this = tilted over
     seed: int = 0
 
     def __post_init__(self):
+        self._fill_robot_numbers()
         if self.num_envs < 1:
             raise ValueError(f"LocoConfig.num_envs must be >= 1, got {self.num_envs}")
         if self.variant not in CLOCK_MODES:
@@ -238,6 +249,25 @@ class LocoConfig:
             raise ValueError(f"LocoConfig.num_envs must be a multiple of {trials} (course kinds x levels) on the "
                              f"evaluation course, got {self.num_envs}")
 
+    def _fill_robot_numbers(self):
+        """The robot's numbers into the fields left None (a new rewards object: a RewardConfig passed in is not
+        changed). Set values stay, so a config rebuilt from a stored run keeps the numbers it trained with, and a
+        robot named here afterwards (dataclasses.replace) keeps the first robot's: make a new config for another."""
+        try:
+            robot = robot_by_name(self.robot)
+        except ValueError as e:
+            raise ValueError(f"LocoConfig.robot: {e}") from None
+        unset = {k: getattr(robot, k) for k in ROBOT_REWARD_NUMBERS if getattr(self.rewards, k) is None}
+        if unset:
+            self.rewards = dataclasses.replace(self.rewards, **unset)
+        if self.fall_height is None:
+            self.fall_height = robot.fall_height
+
     @property
     def uses_clock(self) -> bool:
         return self.variant != "clock_free"
+
+
+# RewardConfig's fields whose default is the robot's number of the same name (LocoRobotConfig); so is fall_height.
+ROBOT_REWARD_NUMBERS = ("base_height_target", "feet_clearance_target", "feet_min_lateral_distance",
+                        "contact_force_threshold")

@@ -1,4 +1,4 @@
-"""The Adam Lite locomotion task as an rsl-rl 5.5.1 VecEnv (paper III-A, III-C, III-D, IV-A).
+"""The locomotion task as an rsl-rl 5.5.1 VecEnv (paper III-A, III-C, III-D, IV-A), for the robot its config names.
 
 One env step (DESIGN.md): actions [N, A] -> gait clock -> PD targets written into the sim -> Newton world steps
 (4 physics substeps, PD torques at each) -> kinematics and terrain sampling -> observations, rewards, dones ->
@@ -25,16 +25,17 @@ from envs.difficulty import Difficulty
 from envs.ground import Ground
 from envs.loco_config import LocoConfig
 from envs.rewards import TERMS
-from robots.adam_lite import ADAM_LITE
-from robots.robot_config import RobotConfig
+from robots import robot_by_name
 
 GRAVITY = 9.81
 
 
 class LocoEnv(VecEnv):
-    def __init__(self, cfg: LocoConfig | None = None, robot: RobotConfig = ADAM_LITE):
+    def __init__(self, cfg: LocoConfig | None = None):
         self.cfg = cfg = cfg or LocoConfig()
-        self.robot = robot = robot.with_gains(cfg.joint_gains) if cfg.joint_gains else robot
+        # the robot as the task sees it (joint groups, stand gains) and as it is driven (cfg.joint_gains applied)
+        self.loco_robot = loco = robot_by_name(cfg.robot)
+        self.robot = robot = loco.robot.with_gains(cfg.joint_gains) if cfg.joint_gains else loco.robot
         self.device = torch.device(cfg.device)
         self.num_envs = N = cfg.num_envs
         J = robot.num_joints
@@ -49,7 +50,7 @@ class LocoEnv(VecEnv):
         self.kin = Kinematics(robot, self.device)
         self.clock = GaitClock(N, cfg.gait, self.device)
         self.difficulty = Difficulty(cfg.difficulty, self.max_episode_length, self.device)
-        self.stand = ScriptedStand(robot, self.device)
+        self.stand = ScriptedStand(robot, loco.stand, self.device)
         self._all_ids = torch.arange(N, device=self.device)
         d = dict(device=self.device)
 
@@ -60,14 +61,14 @@ class LocoEnv(VecEnv):
         self.soft_pos_lower, self.soft_pos_upper = mid - half, mid + half
         self.soft_vel_limit = torch.tensor(robot.velocity_limit, **d) * cfg.rewards.soft_limit
         self.soft_torque_limit = torch.tensor(robot.effort_limit, **d) * cfg.rewards.soft_limit
-        self.arm_joints = torch.tensor(robot.joint_ids(robot.arm_joints), **d)
-        self.hip_joints = torch.tensor(robot.joint_ids(robot.hip_joints), **d)
-        self.waist_joints = torch.tensor(robot.joint_ids(robot.waist_joints), **d)
-        self.swing_joints = torch.tensor([robot.joint_ids(leg) for leg in robot.swing_joints], dtype=torch.long,
-                                         device=self.device).view(len(robot.swing_joints), len(robot.swing_profile))
-        self.swing_profile = torch.tensor(robot.swing_profile, **d)
+        self.arm_joints = torch.tensor(robot.joint_ids(loco.arm_joints), **d)
+        self.hip_joints = torch.tensor(robot.joint_ids(loco.hip_joints), **d)
+        self.waist_joints = torch.tensor(robot.joint_ids(loco.waist_joints), **d)
+        self.swing_joints = torch.tensor([robot.joint_ids(leg) for leg in loco.swing_joints], dtype=torch.long,
+                                         device=self.device).view(len(loco.swing_joints), len(loco.swing_profile))
+        self.swing_profile = torch.tensor(loco.swing_profile, **d)
         self.command_sweeps = self._command_sweeps()
-        self.torso_body = self.world.body_index[robot.torso_link]
+        self.torso_body = self.world.body_index[loco.torso_link]
         self._down = torch.tensor([0.0, 0.0, -1.0], **d)  # gravity direction, world frame
         self.foot_bodies = torch.tensor([self.world.body_index[n] for n in robot.foot_links], **d)
         self.robot_weight = float(self.world.body_mass[0].sum()) * GRAVITY
@@ -186,18 +187,18 @@ class LocoEnv(VecEnv):
     def _command_sweeps(self) -> list[tuple[torch.Tensor, torch.Tensor, int]]:
         """The clock's stride, lateral and turn feedforward that are on: (joint per leg [legs], signed gain per leg
         [legs], command index)."""
-        g, robot, d = self.cfg.gait, self.robot, {"device": self.device}
+        g, loco, d = self.cfg.gait, self.loco_robot, {"device": self.device}
         if not self.cfg.uses_clock:
             return []
-        stride = tuple((leg[0], robot.swing_profile[0]) for leg in robot.swing_joints)  # hip sign: thigh forward
+        stride = tuple((leg[0], loco.swing_profile[0]) for leg in loco.swing_joints)  # hip sign: thigh forward
         out = []
-        for c, (field, legs) in enumerate((("stride", stride), ("lateral", robot.lateral_joints),
-                                           ("turn", robot.turn_joints))):
+        for c, (field, legs) in enumerate((("stride", stride), ("lateral", loco.lateral_joints),
+                                           ("turn", loco.turn_joints))):
             gain = getattr(g, f"{field}_feedforward")
             if gain:
                 if not legs:
-                    raise ValueError(f"gait.{field}_feedforward needs the robot's joints for it ({robot.name})")
-                out.append((torch.tensor(robot.joint_ids(tuple(j for j, _ in legs)), dtype=torch.long, **d),
+                    raise ValueError(f"gait.{field}_feedforward needs the robot's joints for it ({loco.name})")
+                out.append((torch.tensor(self.robot.joint_ids(tuple(j for j, _ in legs)), dtype=torch.long, **d),
                             gain * torch.tensor([sign for _, sign in legs], dtype=torch.float32, **d), c))
         return out
 

@@ -58,15 +58,20 @@ def build_configs(method: str, task: str, *, recipe: str | None = None, override
     from envs.recipes import DEFAULT_RECIPE, resolve
 
     spec, recipe = METHODS[method], recipe or DEFAULT_RECIPE
-    env_cfg = LocoConfig(num_envs=num_envs, device=device, variant=spec.clock_mode, terrain=task, seed=seed,
-                         world=WorldConfig(backend=sim, threads=threads),
-                         difficulty=DifficultyConfig(commands=curriculum, randomization=curriculum))
     from_recipe, dropped = resolve(recipe, task, uses_clock=spec.uses_clock)
     if not curriculum:  # no curriculum means the whole task from the start, whatever the recipe's curriculum
         from_recipe = {k: v for k, v in from_recipe.items() if not k.startswith("difficulty.")}
     merged = {**from_recipe, **(overrides or {})}
     env_over = {k: v for k, v in merged.items() if not k.startswith("learner.")}
     learner_over = {k[len("learner."):]: v for k, v in merged.items() if k.startswith("learner.")}
+    # the robot is chosen when the config is made: its numbers fill the fields the overrides leave unset
+    robot = {"robot": env_over.pop("robot")} if "robot" in env_over else {}
+    try:
+        env_cfg = LocoConfig(num_envs=num_envs, device=device, variant=spec.clock_mode, terrain=task, seed=seed,
+                             world=WorldConfig(backend=sim, threads=threads),
+                             difficulty=DifficultyConfig(commands=curriculum, randomization=curriculum), **robot)
+    except ValueError as e:
+        raise ValueError(f"--override: {e}") from e
     if env_over:
         try:
             env_cfg = with_overrides(env_cfg, env_over)

@@ -1,10 +1,10 @@
 """Observation layouts: the one place that says which slice of which group holds what.
 
-Actor ("policy", the paper's o_t, 84 = 3+3+23+23+26+3+1+2 for Adam Lite with the clock):
+Actor ("policy", the paper's o_t: 84 = 3+3+23+23+26+3+1+2 for a robot of 23 joints with the clock):
     command (vx, vy, yaw rate, scaled) | projected gravity | joint positions - q_ref | joint velocities (scaled) |
     previous action | base angular velocity (scaled) | average angular speed (filtered yaw rate, scaled) |
     gait phase (sin, cos of the global phase 2 pi phi / T_cycle; the leg offsets are in the previous action)
-Clock-free: no gait actions in the previous action and no gait phase (79 for Adam Lite).
+Clock-free: no gait actions in the previous action and no gait phase (79 for 23 joints).
 
 Critic "privileged" (the paper's s_t): base linear velocity (base frame, scaled) | whole-body CoM relative to the
 base (base frame) | two 5x5 foot-level height maps (left, right; heights relative to the sole) | foot contact

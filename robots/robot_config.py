@@ -10,7 +10,8 @@ from pathlib import Path
 
 @dataclass(frozen=True)
 class RobotConfig:
-    """One robot as the simulator, kinematics and tasks see it.
+    """One robot as the simulator and kinematics see it: what it is, not how a task uses it (the locomotion task's
+    joint groups, stand gains and numbers are its LocoRobotConfig, robots/loco_robot.py).
 
     Every per-joint tuple is in the canonical order of ``joint_names`` (the driven joints). Joints of the
     description that are not driven are listed in ``fixed_joints``: the simulator and the kinematics weld them at 0.
@@ -34,24 +35,6 @@ class RobotConfig:
     sole_half_size: tuple[float, float]         # sole half length (x) and half width (y) [m]
     fixed_joints: tuple[str, ...] = ()          # joints of the description held at 0: fixed in sim and kinematics
     armature: float = 0.0                       # reflected rotor inertia added to every joint [kg m^2]
-    # Gains the scripted stand emulates through its PD targets (cra_warp.stand); empty = kp / kd (a passive stand).
-    stand_kp: tuple[float, ...] = ()
-    stand_kd: tuple[float, ...] = ()
-    ankle_pitch_joints: tuple[str, ...] = ()    # the scripted stand balances the CoM over the soles through these
-    # Joint groups and bodies the task's reward terms read (Table I's arm / hip / waist deviation, torso orientation)
-    arm_joints: tuple[str, ...] = ()
-    hip_joints: tuple[str, ...] = ()            # hip roll and yaw: hip pitch must swing to walk
-    waist_joints: tuple[str, ...] = ()
-    torso_link: str = ""
-    # The swing_reference shaping term (not in Table I): per foot, the pitch joints that lift it, and how far each
-    # moves (rad per rad of the reward's swing amplitude) from default_q at the top of the swing.
-    swing_joints: tuple[tuple[str, ...], ...] = ()
-    swing_profile: tuple[float, ...] = ()
-    # The clock's lateral and turn feedforward (cra_warp.gait): per foot, the joint that moves the sole sideways and
-    # the one that turns it about the vertical, each with the sign (+-1) of the angle that moves the sole to +y (left)
-    # or turns its toes anticlockwise seen from above.
-    lateral_joints: tuple[tuple[str, float], ...] = ()
-    turn_joints: tuple[tuple[str, float], ...] = ()
     # The left-right mirror through the sagittal (x-z) plane: joints named <j>_Left and <j>_Right swap, and the
     # joints listed here by name without side (roll and yaw axes on this kind of robot) change sign; the rest keep
     # their angle (tests check it through forward kinematics).
@@ -59,24 +42,9 @@ class RobotConfig:
 
     def __post_init__(self):
         n = len(self.joint_names)
-        for f in ("default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper", "stand_kp",
-                  "stand_kd"):
-            if len(getattr(self, f)) != n and not (f.startswith("stand_") and not getattr(self, f)):
+        for f in ("default_q", "kp", "kd", "effort_limit", "velocity_limit", "pos_lower", "pos_upper"):
+            if len(getattr(self, f)) != n:
                 raise ValueError(f"RobotConfig.{f} has {len(getattr(self, f))} entries, expected {n} (one per joint)")
-        for f in ("ankle_pitch_joints", "arm_joints", "hip_joints", "waist_joints"):
-            unknown = [j for j in getattr(self, f) if j not in self.joint_names]
-            if unknown:
-                raise ValueError(f"RobotConfig.{f} names joints that are not driven: {unknown}")
-        if self.swing_joints and (len(self.swing_joints) != len(self.foot_links)
-                                  or any(len(leg) != len(self.swing_profile) for leg in self.swing_joints)
-                                  or any(j not in self.joint_names for leg in self.swing_joints for j in leg)):
-            raise ValueError(f"RobotConfig.swing_joints needs one tuple of driven joints per foot, each as long as "
-                             f"swing_profile {self.swing_profile}, got {self.swing_joints}")
-        for f in ("lateral_joints", "turn_joints"):
-            legs = getattr(self, f)
-            if legs and (len(legs) != len(self.foot_links) or any(j not in self.joint_names or abs(sign) != 1
-                                                                  for j, sign in legs)):
-                raise ValueError(f"RobotConfig.{f} needs one (driven joint, +-1) per foot, got {legs}")
         bases = {n.rsplit("_", 1)[0] for n in self.joint_names} | set(self.joint_names)
         unknown = [j for j in self.mirror_negated if j not in bases]
         if unknown:

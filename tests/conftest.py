@@ -37,8 +37,9 @@ def stand_steps(world, steps: int, q_ref=None, each=None):
     """Step ``world`` under the scripted stand (the robot's ankles are too soft for a zero-action stand);
     ``each(k)`` runs after step k."""
     from cra_warp.stand import ScriptedStand
+    from robots import robot_by_name
 
-    stand = ScriptedStand(world.robot, world.joint_pos.device)
+    stand = ScriptedStand(world.robot, robot_by_name(world.robot.name).stand, world.joint_pos.device)
     for k in range(steps):
         world.joint_target.copy_(stand.targets(world, q_ref))
         world.step()

@@ -10,6 +10,7 @@ from envs import rewards as R
 from envs.loco_config import DEFAULT_WEIGHTS, TABLE_I_TERMS, LocoConfig
 from conftest import PAPER_TABLE_I
 from robots.adam_lite import ADAM_LITE
+from robots.adam_lite.loco import ADAM_LITE_LOCO
 
 J = ADAM_LITE.num_joints
 
@@ -145,8 +146,8 @@ def test_body_height_and_power():
 def _swing_state(signals, lift):
     """Robot at default_q plus ``lift`` x the swing profile on the left leg; clock signals (s, c) given."""
     e = state(n=1)
-    legs = [ADAM_LITE.joint_ids(leg) for leg in ADAM_LITE.swing_joints]
-    e.swing_joints, e.swing_profile = torch.tensor(legs), torch.tensor(ADAM_LITE.swing_profile)
+    legs = [ADAM_LITE.joint_ids(leg) for leg in ADAM_LITE_LOCO.swing_joints]
+    e.swing_joints, e.swing_profile = torch.tensor(legs), torch.tensor(ADAM_LITE_LOCO.swing_profile)
     e.joint_pos[0, legs[0]] += lift * e.swing_profile
     gamma = LocoConfig().gait.gamma
     e.clock = SimpleNamespace(swing_depth=swing_depth(torch.tensor([signals]), gamma))
@@ -172,7 +173,7 @@ def test_the_swing_profile_lifts_the_foot_and_keeps_the_sole_level():
 
     kin, a = Kinematics(ADAM_LITE), LocoConfig().rewards.swing_amplitude
     q = torch.tensor(ADAM_LITE.default_q).repeat(2, 1)
-    q[1, ADAM_LITE.joint_ids(ADAM_LITE.swing_joints[0])] += a * torch.tensor(ADAM_LITE.swing_profile)
+    q[1, ADAM_LITE.joint_ids(ADAM_LITE_LOCO.swing_joints[0])] += a * torch.tensor(ADAM_LITE_LOCO.swing_profile)
     f = kin.feet(torch.zeros(2, 3), torch.tensor([[0.0, 0.0, 0.0, 1.0]]).repeat(2, 1), q)
     lift = f.sole_centres[1, 0, 2] - f.sole_centres[0, 0, 2]
     assert 0.06 < lift.item() < 0.12                                          # about the clearance target, 8 cm

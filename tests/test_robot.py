@@ -54,15 +54,6 @@ def test_with_gains_sets_both_sides_and_names_unknown_joints():
         ADAM_LITE.with_gains({"ankle": (1.0, 1.0)})
 
 
-def test_feedforward_joint_groups_need_one_signed_driven_joint_per_foot():
-    import dataclasses
-
-    for bad in ((("hipRoll_Left", 1.0),), (("hipRoll_Left", 1.0), ("wristYaw_Left", 1.0)),
-                (("hipRoll_Left", 1.0), ("hipRoll_Right", 0.5))):
-        with pytest.raises(ValueError, match="lateral_joints"):
-            dataclasses.replace(ADAM_LITE, lateral_joints=bad)
-
-
 def test_mirror_map_is_the_robots_left_right_symmetry():
     """Joint angles mirrored by RobotConfig.mirror_joints put every link where the mirror image (y -> -y) of the
     original pose has it, position and orientation, for random poses: the map is the robot's own symmetry."""

@@ -152,6 +152,7 @@ def stand_run():
     from cra_warp.stand import ScriptedStand
     from cra_warp.sim import WorldConfig, make_world
     from robots.adam_lite import ADAM_LITE as R
+    from robots.adam_lite.loco import ADAM_LITE_LOCO
 
     terrain = generate_terrain(PHYS_CFG)
     sampler = HeightSampler(terrain.field)
@@ -184,7 +185,7 @@ def stand_run():
     world = make_world(R, WorldConfig(), boxes, num_envs=len(s.rows))
     world.reset(joint_q=torch.stack(s.rows))
     q_ref = torch.stack(s.targets)
-    stand = ScriptedStand(R)
+    stand = ScriptedStand(R, ADAM_LITE_LOCO.stand)
     d = world.solver.mjw_data
     rel, pen, upright, ncon, nefc = [], [], [], 0, 0
     xy0 = world.root_pos[:, :2].clone()

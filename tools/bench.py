@@ -80,6 +80,7 @@ def _world_worker(spec: dict) -> dict:
     from cra_warp.sim import WorldConfig, make_world
     from cra_warp.stand import ScriptedStand
     from robots.adam_lite import ADAM_LITE
+    from robots.adam_lite.loco import ADAM_LITE_LOCO
 
     torch.set_num_threads(1)
 
@@ -94,7 +95,7 @@ def _world_worker(spec: dict) -> dict:
     window = {} if spec["terrain"] == "rough" else {"terrain_window": None}
     world = make_world(ADAM_LITE, WorldConfig(backend=spec["backend"], threads=spec.get("threads", 0), **window),
                        terrain, num_envs=n, device=spec["device"])
-    stand = ScriptedStand(ADAM_LITE, world.joint_pos.device)
+    stand = ScriptedStand(ADAM_LITE, ADAM_LITE_LOCO.stand, world.joint_pos.device)
     q = world.default_joint_q.clone()
     q[:, :3] += origins.to(q.device)
     world.reset(joint_q=q)

@@ -30,7 +30,7 @@ from cra_warp.cli import UsageError, parse_args
 def deploy_metadata(env) -> dict:
     """Everything a deploy program needs besides the network to rebuild the observation, the gait clock and the PD
     loop, without reading our code (cra_warp.learning.export does not import the task, so the task says it here)."""
-    robot, cfg, o, w = env.robot, env.cfg, env.cfg.obs, env.cfg.world
+    robot, loco, cfg, o, w = env.robot, env.loco_robot, env.cfg, env.cfg.obs, env.cfg.world
     gait = dataclasses.asdict(cfg.gait) if cfg.uses_clock else None
     observation = {
         "command": (f"the commanded base velocity: [vx, vy] [m/s] and yaw rate [rad/s] in the base (pelvis) frame "
@@ -73,7 +73,7 @@ def deploy_metadata(env) -> dict:
                              "should carry it)",
         },
         "gait": gait,
-        **({"swing": {"joints": [list(leg) for leg in robot.swing_joints], "profile": list(robot.swing_profile),
+        **({"swing": {"joints": [list(leg) for leg in loco.swing_joints], "profile": list(loco.swing_profile),
                       "feedforward": ("if gait.swing_feedforward > 0: after the clock advances, leg i's joints get "
                                       "swing_feedforward x depth_i x profile added to their q_target, depth_i = "
                                       "clip((gamma - sig_i) / (1 + gamma), 0, 1), sig = (sin 2 pi (phi / cycle_time "
@@ -81,13 +81,13 @@ def deploy_metadata(env) -> dict:
                       "stride": ("if gait.stride_feedforward > 0: leg i's first joint (hip pitch) also gets profile[0] "
                                  "x stride_feedforward x command vx x cos of sig_i's angle, the command as observed "
                                  "this control step"),
-                      "lateral_joints": [list(j) for j in robot.lateral_joints],
-                      "turn_joints": [list(j) for j in robot.turn_joints],
+                      "lateral_joints": [list(j) for j in loco.lateral_joints],
+                      "turn_joints": [list(j) for j in loco.turn_joints],
                       "sweeps": ("likewise, if gait.lateral_feedforward > 0, leg i's lateral joint gets sign_i x "
                                  "lateral_feedforward x command vy x cos of sig_i's angle, and if "
                                  "gait.turn_feedforward > 0 its turn joint sign_i x turn_feedforward x command yaw "
                                  "rate x that cos ((joint, sign_i) per leg in lateral_joints, turn_joints)")}}
-           if cfg.uses_clock and robot.swing_joints else {}),
+           if cfg.uses_clock and loco.swing_joints else {}),
         "control_dt": env.dt,
         "obs_scales": {"command": list(o.command_scale), "ang_vel": o.ang_vel_scale, "joint_vel": o.joint_vel_scale,
                        "yaw_rate_filter_tau": o.yaw_rate_filter_tau},

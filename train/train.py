@@ -165,12 +165,14 @@ def parse_overrides(items: tuple[str, ...]) -> dict[str, object]:
 
 def run_config(a: TrainArgs, env, env_cfg, learner, recipe: dict | None = None) -> dict:
     """Everything that defines a run, resolved: CLI arguments, the recipe (its name, the overrides it applied and
-    those the method could not use), env (world, robot-facing task settings) and learner configs, the robot, and
-    the observation layouts the networks were built for."""
+    those the method could not use), env (world, robot-facing task settings) and learner configs, the robot (as
+    driven), what the task read of it (joint groups, stand gains; its numbers are in env), and the observation
+    layouts the networks were built for."""
     from cra_warp.config_io import to_data
 
     return {"args": to_data(a), "recipe": to_data(recipe or {}), "env": to_data(env_cfg),
             "learner": to_data(learner), "robot": to_data(env.robot),
+            "loco_robot": {k: v for k, v in to_data(env.loco_robot).items() if k != "robot"},
             "layout": {"actor": to_data(env.layout), "privileged": to_data(env.priv_layout)}}
 
 

@@ -11,9 +11,10 @@ config (pitch 130/3.5, roll 70/2), whose legs have the Lite's kinematics and ine
 iterations (N=256) the episodes lasted 93 vs 80 steps (tools/results/ab_ankle.json). The Lite's ankle torque limits
 (40 and 12 N m) stay; the deploy JSON carries the gains, which the robot's drives must be set to. A zero action
 is still no stand (the CoM is ~3.6 cm ahead of the ankle: FACTS.md); balancing is the policy's job. Tests and the
-evaluation floor use a scripted stand instead (cra_warp.stand), which emulates the stiffer gains below through its
-PD targets at the policy rate: hip pitch, knee and ankle pitch 610/6, 610/6, 500/10, the gains that held a passive
-5 s stand under implicit PD.
+evaluation floor use a scripted stand instead (cra_warp.stand, its gains in loco.py).
+
+What the locomotion task reads of the robot beyond this (joint groups, stand gains, its numbers at this robot's size)
+is in loco.py.
 
 wristYaw joints are in the description (25 revolute joints) but not driven by the policy: the vendor's deploy stack
 holds them at 0, so the simulator and the kinematics weld them at 0 (fixed joints). That keeps the 23 driven joints
@@ -39,8 +40,6 @@ _LEG_Q_L = (-0.32, 0.0, -0.18, 0.66, -0.39, 0.0)
 _LEG_Q_R = (-0.32, 0.0, 0.18, 0.66, -0.39, 0.0)
 _LEG_KP = (305.0, 700.0, 405.0, 305.0, 130.0, 70.0)
 _LEG_KD = (6.1, 30.0, 6.1, 6.1, 3.5, 2.0)
-_LEG_STAND_KP = (610.0, 700.0, 405.0, 610.0, 500.0, 70.0)
-_LEG_STAND_KD = (6.0, 30.0, 6.1, 6.0, 10.0, 2.0)
 #            shP   shR   shY   elbow
 _ARM_Q_L = (0.0, 0.1, 0.0, -0.3)
 _ARM_Q_R = (0.0, -0.1, 0.0, -0.3)
@@ -58,8 +57,6 @@ ADAM_LITE = RobotConfig(
     default_q=(*_LEG_Q_L, *_LEG_Q_R, 0.0, 0.0, 0.0, *_ARM_Q_L, *_ARM_Q_R),
     kp=(*_LEG_KP, *_LEG_KP, *_WAIST_KP, *_ARM_KP, *_ARM_KP),
     kd=(*_LEG_KD, *_LEG_KD, *_WAIST_KD, *_ARM_KD, *_ARM_KD),
-    stand_kp=(*_LEG_STAND_KP, *_LEG_STAND_KP, *_WAIST_KP, *_ARM_KP, *_ARM_KP),
-    stand_kd=(*_LEG_STAND_KD, *_LEG_STAND_KD, *_WAIST_KD, *_ARM_KD, *_ARM_KD),
     effort_limit=tuple(JOINT_BY_NAME[n].effort for n in JOINT_NAMES),
     velocity_limit=tuple(JOINT_BY_NAME[n].velocity for n in JOINT_NAMES),
     pos_lower=tuple(JOINT_BY_NAME[n].limits[0] for n in JOINT_NAMES),
@@ -69,19 +66,6 @@ ADAM_LITE = RobotConfig(
     sole_offset=(SOLE.xyz[0], SOLE.xyz[1], SOLE.xyz[2] - SOLE.size[2] / 2),
     sole_half_size=(SOLE.size[0] / 2, SOLE.size[1] / 2),
     fixed_joints=("wristYaw_Left", "wristYaw_Right"),
-    ankle_pitch_joints=("anklePitch_Left", "anklePitch_Right"),
-    arm_joints=tuple(f"{j}_{side}" for side in ("Left", "Right") for j in _ARM),
-    hip_joints=("hipRoll_Left", "hipYaw_Left", "hipRoll_Right", "hipYaw_Right"),
-    waist_joints=("waistRoll", "waistPitch", "waistYaw"),
-    torso_link="torso",
-    # hip -A, knee +2A, ankle -A: the sole rises (9 cm at A = 0.25, pytorch-kinematics) and stays nearly level
-    swing_joints=tuple(tuple(f"{j}_{side}" for j in ("hipPitch", "kneePitch", "anklePitch"))
-                       for side in ("Left", "Right")),
-    swing_profile=(-1.0, 2.0, -1.0),
-    # both hip roll axes point forward-ish and both hip yaw axes up: on either leg a positive angle moves the sole
-    # left and turns its toes left (tests/test_env.py checks it through forward kinematics)
-    lateral_joints=(("hipRoll_Left", 1.0), ("hipRoll_Right", 1.0)),
-    turn_joints=(("hipYaw_Left", 1.0), ("hipYaw_Right", 1.0)),
     # every roll and yaw axis points the same way on both sides (x forward, z up), so mirrored they change sign
     mirror_negated=("hipRoll", "hipYaw", "ankleRoll", "waistRoll", "waistYaw", "shoulderRoll", "shoulderYaw"),
     # Reflected rotor inertia. The vendor files carry none (but 0.001 on ankle pitch); QDD rotors reflect about
