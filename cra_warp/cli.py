@@ -6,12 +6,20 @@ from __future__ import annotations
 import contextlib
 import io
 import sys
-from typing import Literal, TypeVar, get_args
-
-Sim = Literal["newton", "mujoco"]
-SIMS = get_args(Sim)
+from typing import TypeVar
 
 T = TypeVar("T")
+
+
+def __getattr__(name: str):
+    """``Sim`` (the type of every --sim) and ``SIMS`` are the simulator's backend names, cra_warp.sim.config.Backend
+    and BACKENDS, looked up when first asked for: importing cra_warp.sim loads torch, which a command that only
+    parses its arguments here (cra-campaign, cra-export's checks) should not pay for."""
+    if name in ("Sim", "SIMS"):
+        from cra_warp.sim.config import BACKENDS, Backend
+
+        return Backend if name == "Sim" else BACKENDS
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class UsageError(Exception):
@@ -41,9 +49,10 @@ def parse_args(cls: type[T], argv: list[str] | None, doc: str | None) -> T:
 
 
 def check_sim(sim: str | None, device: str) -> None:
-    if sim is not None and sim not in SIMS:
-        raise UsageError(f"--sim must be one of {', '.join(SIMS)}, got {sim!r}")
-    from cra_warp.sim.config import check_backend_device
+    from cra_warp.sim.config import BACKENDS, check_backend_device
+
+    if sim is not None and sim not in BACKENDS:
+        raise UsageError(f"--sim must be one of {', '.join(BACKENDS)}, got {sim!r}")
 
     try:
         if sim is not None:  # None: the run's or the default backend, checked when the world is made

@@ -215,12 +215,14 @@ def torque_velocity(samples: dict, path: Path, title: str) -> dict:
 def main(argv: list[str] | None = None) -> int:
     import json
 
+    from cra_warp.sim.config import BACKENDS
+
     p = argparse.ArgumentParser(prog="cra-figures", description=__doc__.split("\n\n")[0])
     p.add_argument("--runs", nargs="+", default=[], help="METHOD=DIR[,DIR...] training runs (one per seed)")
     p.add_argument("--eval", nargs="+", type=Path, default=[], help="cra-eval --json files")
     p.add_argument("--torque", type=Path, help="a checkpoint to record climbing stairs for the scatter")
     p.add_argument("--torque-level", type=int, default=2, help="stairs level of the scatter (0: 5 cm, 2: 15 cm)")
-    p.add_argument("--sim", choices=("newton", "mujoco"), help="simulator of the stairs rollout")
+    p.add_argument("--sim", choices=BACKENDS, help="simulator of the stairs rollout")
     p.add_argument("--out", type=Path, required=True, help="directory for the PNGs and their JSON")
     a = p.parse_args(argv)
     try:

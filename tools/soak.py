@@ -71,10 +71,12 @@ def soak(steps: int, num_envs: int, sim: str, seed: int, poison_every: int, terr
 
 
 def main(argv: list[str] | None = None) -> int:
+    from cra_warp.sim.config import BACKENDS
+
     p = argparse.ArgumentParser(prog="cra-soak", description=__doc__.split("\n\n")[0])
     p.add_argument("--steps", type=int, default=1_000_000, help="env steps in total (robots x steps)")
     p.add_argument("--num-envs", type=int, default=1024)
-    p.add_argument("--sim", choices=("newton", "mujoco"), default="mujoco")
+    p.add_argument("--sim", choices=BACKENDS, default="mujoco")
     p.add_argument("--terrain", choices=("flat", "rough"), default="flat")
     p.add_argument("--poison-every", type=int, default=50, help="env steps between NaN-poisoned worlds (0: none)")
     p.add_argument("--seed", type=int, default=0)

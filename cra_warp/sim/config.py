@@ -13,7 +13,7 @@ This module imports no simulator.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import ClassVar, Literal, Protocol
+from typing import ClassVar, Literal, Protocol, get_args
 
 import numpy as np
 import torch
@@ -22,6 +22,11 @@ from cra_warp.terrain.window import TerrainWindows, WindowConfig
 from robots.robot_config import RobotConfig
 
 FREE_Q, FREE_QD = 7, 6  # coordinates and dofs of the floating base joint
+
+# The simulator backends' names, written here only: WorldConfig.backend's type and check, make_world's choice, and
+# every command's --sim (cra_warp.cli.Sim and SIMS are these; tools/soak and tools/figures take their choices here).
+Backend = Literal["newton", "mujoco"]
+BACKENDS: tuple[str, ...] = get_args(Backend)
 
 
 def check_backend_device(backend: str, device: str) -> None:
@@ -40,7 +45,7 @@ class WorldConfig:
     RETIRED_FIELDS: ClassVar[tuple[str, ...]] = ("num_envs", "device")
     # "newton": Newton + mujoco_warp (CPU or CUDA, graph capture); "mujoco": MuJoCo C through mujoco.batch's
     # thread pool (CPU only), the same MjModel. Both run the same PD law and contact settings.
-    backend: Literal["newton", "mujoco"] = "newton"
+    backend: Backend = "newton"
     threads: int = 0                    # MuJoCo backend: batch threads; 0 = the cores this process may use
     sim_dt: float = 0.005               # physics step [s]
     substeps: int = 4                   # physics steps per env step (0.02 s); must be even (captured state swap)
@@ -65,8 +70,8 @@ class WorldConfig:
             raise ValueError(f"WorldConfig.substeps must be even and >= 2 (the captured state swap), got {self.substeps}")
         if self.sim_dt <= 0:
             raise ValueError(f"WorldConfig.sim_dt must be > 0, got {self.sim_dt}")
-        if self.backend not in ("newton", "mujoco"):
-            raise ValueError(f"WorldConfig.backend must be newton or mujoco, got {self.backend!r}")
+        if self.backend not in BACKENDS:
+            raise ValueError(f"WorldConfig.backend must be {' or '.join(BACKENDS)}, got {self.backend!r}")
 
     @property
     def env_dt(self) -> float:
