@@ -13,6 +13,13 @@
     torque_velocity.png     joint velocity vs torque of the leg joints of one policy climbing stairs (a rollout of
                             --torque on the course's stairs ascent, robots still up)
 
+And one of cra-grid --study walk:
+
+    cra-figures --walk walk/walk/*-s*.json --out walk/figures/
+
+    walk_error.png          the flat trial's v_x error vs env steps of every check of every run (an arm's seeds in
+                            one colour; a hollow marker: not every robot up), the walking threshold dashed
+
 Each PNG has a JSON of what it draws beside it. A figure whose inputs were not given is skipped (said so).
 """
 
@@ -157,6 +164,46 @@ def success_vs_terrain(records: list[dict], path: Path, speed: float = 0.15) -> 
     return data
 
 
+def walk_error(records: list[dict], path: Path) -> dict:
+    """v_x error vs env steps of each run's checks (cra-grid --study walk records), one colour per arm."""
+    plt = _plt()
+    arms: dict[str, list[dict]] = {}
+    for r in records:
+        arms.setdefault(r["label"], []).append(r)
+    if not any(r["checks"] for r in records):
+        raise ValueError("no checks in the --walk records")
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    data = {}
+    for k, (arm, runs) in enumerate(arms.items()):
+        c = f"C{k % 10}"
+        data[arm] = {}
+        for n, r in enumerate(sorted(runs, key=lambda r: r["seed"])):
+            pts = [(ch["env_steps"] / 1e6, ch["vx_error"], ch["robots_up"] == ch["robots"]) for ch in r["checks"]
+                   if ch["vx_error"] is not None]
+            data[arm][f"s{r['seed']}"] = {"env_steps": [ch["env_steps"] for ch in r["checks"]],
+                                          "vx_error": [ch["vx_error"] for ch in r["checks"]],
+                                          "robots_up": [ch["robots_up"] for ch in r["checks"]],
+                                          "robots": [ch["robots"] for ch in r["checks"]],
+                                          "walked": r.get("walked")}
+            if not pts:
+                continue
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], color=c, lw=1, alpha=0.8,
+                    label=f"{arm} ({len(runs)} seeds)" if n == 0 else None)
+            for filled in (True, False):
+                sel = [p for p in pts if p[2] == filled]
+                ax.scatter([p[0] for p in sel], [p[1] for p in sel], s=14, edgecolors=c,
+                           facecolors=c if filled else "none")
+    threshold = records[0].get("walk_error")
+    if threshold is not None:
+        ax.axhline(threshold, color="k", ls="--", lw=0.8, label=f"walking: v_x error <= {threshold} m/s")
+    ax.set(xlabel="env steps [M]", ylabel="v_x error [m/s] (robots still up)",
+           title="Flat trial during training (hollow: some robots fell)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    _save(fig, path, data)
+    return data
+
+
 def record_stairs(checkpoint: Path, robots: int = 5, speed: float = 0.15, sim: str | None = None,
                   level: int = 2) -> dict:
     """Leg joints' velocity and torque, every step of ``robots`` robots climbing the course's stairs at ``level``
@@ -223,11 +270,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--torque", type=Path, help="a checkpoint to record climbing stairs for the scatter")
     p.add_argument("--torque-level", type=int, default=2, help="stairs level of the scatter (0: 5 cm, 2: 15 cm)")
     p.add_argument("--sim", choices=BACKENDS, help="simulator of the stairs rollout")
+    p.add_argument("--walk", nargs="+", type=Path, default=[],
+                   help="cra-grid --study walk check records (<out>/walk/<arm>-s<seed>.json): v_x error vs env steps")
     p.add_argument("--out", type=Path, required=True, help="directory for the PNGs and their JSON")
     a = p.parse_args(argv)
     try:
-        if not (a.runs or a.eval or a.torque):
-            raise ValueError("nothing to draw: give --runs, --eval and/or --torque")
+        if not (a.runs or a.eval or a.torque or a.walk):
+            raise ValueError("nothing to draw: give --runs, --eval, --torque and/or --walk")
         runs = dict(parse_arm(t) for t in a.runs)
         records = []
         for f in a.eval:
@@ -235,6 +284,13 @@ def main(argv: list[str] | None = None) -> int:
                 records += json.loads(f.read_text())
             except (OSError, ValueError) as e:
                 raise ValueError(f"--eval {f}: not a cra-eval JSON ({e})") from None
+        walked = []
+        for f in a.walk:
+            try:
+                walked.append(json.loads(f.read_text()))
+                walked[-1]["checks"]
+            except (OSError, ValueError, KeyError, TypeError) as e:
+                raise ValueError(f"--walk {f}: not a cra-grid --study walk record ({e})") from None
         if a.torque is not None and not a.torque.is_file():
             raise ValueError(f"--torque {a.torque}: no such checkpoint")
         a.out.mkdir(parents=True, exist_ok=True)
@@ -251,11 +307,14 @@ def main(argv: list[str] | None = None) -> int:
             # the path's last three parts name the run and its iteration without the machine's directories
             torque_velocity(samples, a.out / "torque_velocity.png", f"{Path(*a.torque.parts[-3:])} climbing stairs")
             wrote.append("torque_velocity.png")
+        if walked:
+            walk_error(walked, a.out / "walk_error.png")
+            wrote.append("walk_error.png")
     except ValueError as e:
         print(f"cra-figures: {e}", file=sys.stderr)
         return 2
     skipped = [n for n, given in (("terrain_level (--runs)", runs), ("success (--eval)", records),
-                                  ("torque_velocity (--torque)", a.torque)) if not given]
+                                  ("torque_velocity (--torque)", a.torque)) if not given and not walked]
     print(f"wrote {', '.join(str(a.out / w) for w in wrote)}" + (f"; skipped {', '.join(skipped)}" if skipped else ""))
     return 0
 

@@ -3,6 +3,7 @@
     cra-campaign save climb ~/cra_runs/climb/control_s1 ~/cra_runs/climb/sigma_s1 --target 3000
     cra-campaign resume climb [--out ~/cra_runs/climb] [--cores 0]
     cra-campaign status climb [RUN ...] [--iteration K] [--json out.json]
+    cra-campaign restore climb --out grid/walk          # the checkpoints back into run directories, no training
 
 A campaign is a folder robots/<robot>/campaigns/<name>/ in the repository: for each of its runs the newest
 checkpoint (actor, critic, optimizer, curriculum levels and the run's whole resolved config: a few MB), a
@@ -13,6 +14,12 @@ run by default), until the campaign's target iteration. ``status`` tells where e
 mean terrain level per terrain type: the pits are the ascents) from its checkpoint, the committed campaign's or
 each RUN directory's. The checkpoint is the source of truth: nothing else is
 needed to continue, so a lost ~/cra_runs costs at most the iterations since the last save.
+
+A cra-grid study keeps several runs under one directory (<out>/train/<method>-s<seed>/, <out>/walk/...): ``save``
+takes them all (``cra-campaign save NAME <out>/walk/*/``), each with the record the study keeps beside its directory
+(RUN.json: the walk study's checks) when there is one. ``restore NAME --out DIR`` puts every run's checkpoint back as
+DIR/<run>/model_<it>.pt and its record as DIR/<run>.json, trains nothing, and leaves alone a run whose directory
+already holds a checkpoint as new; re-running the study's cra-grid command then continues it.
 """
 
 from __future__ import annotations
@@ -41,11 +48,12 @@ _PER_START = ("resume", "init", "log_dir", "max_iterations")
 
 @dataclass
 class CampaignArgs:
-    action: Positional[Literal["save", "resume", "status"]]
+    action: Positional[Literal["save", "resume", "status", "restore"]]
     name: Positional[str]                       # the campaign's folder under robots/adam_lite/campaigns/
     runs: Positional[tuple[Path, ...]] = ()     # save, status: each run's --log-dir (its newest model_<it>.pt)
     target: int | None = None                   # save: the iteration every run trains to (default: kept, or 3000)
-    out: Path | None = None                     # resume: where the runs continue (default ~/cra_runs/<name>)
+    # resume: where the runs continue (default ~/cra_runs/<name>); restore: where the run directories go (the same)
+    out: Path | None = None
     cores: tuple[int, ...] = (0,)               # resume: the cores every run shares (taskset)
     iterations: int | None = None               # resume: at most this many more iterations per run
     only: tuple[str, ...] = ()                  # resume: these runs only (default: every run)
@@ -108,12 +116,16 @@ def save(a: CampaignArgs) -> Path:
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
     runs = {}
-    for label, ckpt in picked.items():
+    for run, (label, ckpt) in zip(a.runs, picked.items()):
         it, config = _stored(ckpt)
         (staging / label).mkdir()
         shutil.copy2(ckpt, staging / label / ckpt.name)
         runs[label] = {"checkpoint": f"{label}/{ckpt.name}", "iteration": it, "env_steps": _env_steps(it, config),
                        "args": config["args"]}
+        record = _record(run)
+        if record.is_file():  # a grid study's record of the run, beside its directory (the walk study's checks)
+            shutil.copy2(record, staging / label / "record.json")
+            runs[label]["record"] = f"{label}/record.json"
     manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
                 "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
@@ -128,6 +140,35 @@ def save(a: CampaignArgs) -> Path:
     else:
         staging.rename(folder)
     return folder
+
+
+def _record(run: Path) -> Path:
+    """The record a cra-grid study keeps beside a run's directory: <run>.json."""
+    return run.parent / f"{run.name}.json"
+
+
+def restore(a: CampaignArgs) -> list[Path]:
+    """Every run's checkpoint back as <out>/<run>/model_<it>.pt (and its record as <out>/<run>.json), no training;
+    a run whose directory already holds a checkpoint at least as far along is left as it is (said so)."""
+    from train.train import newest_checkpoint
+
+    folder, manifest = _manifest(a)
+    out = a.out or Path.home() / "cra_runs" / a.name
+    restored = []
+    for label, run in manifest["runs"].items():
+        ckpt, run_dir = folder / run["checkpoint"], out / label
+        have = newest_checkpoint(run_dir) if run_dir.is_dir() else None
+        if have is not None and int(have.stem.split("_")[1]) >= run["iteration"]:
+            print(f"{label}: {have} is as far as the campaign's iteration {run['iteration']} or further: left as "
+                  "it is")
+            continue
+        run_dir.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ckpt, run_dir / ckpt.name)
+        if run.get("record"):
+            shutil.copy2(folder / run["record"], _record(run_dir))
+        print(f"{label}: iteration {run['iteration']} -> {run_dir / ckpt.name}")
+        restored.append(run_dir / ckpt.name)
+    return restored
 
 
 def resume_md(m: dict) -> str:
@@ -257,6 +298,9 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if a.action == "status":
             status(a)
+            return 0
+        if a.action == "restore":
+            restore(a)
             return 0
         return resume(a)
     except UsageError as e:
