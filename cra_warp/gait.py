@@ -25,9 +25,9 @@ class GaitClockConfig:
     gamma: float = -0.1        # stance threshold; negative = both feet in stance near the crossings
     beta_scale: float = 1.0    # scale applied to the raw gait actions
     # [rad] Beyond the paper (its III-E: s(t) and c(t) "can be used to drive each foot's ... swing trajectory"):
-    # each leg's swing joints get swing_feedforward x depth x the robot's swing_profile added to their PD targets,
-    # so a zero action marches in place with the clock and the policy learns to balance and steer a stepping
-    # gait instead of having to discover stepping from standing (0 = off).
+    # each leg's swing joints get swing_feedforward x depth x the robot's swing_profile (robots/<robot>/loco.py)
+    # added to their PD targets, so a zero action marches in place with the clock and the policy learns to balance
+    # and steer a stepping gait instead of having to discover stepping from standing (0 = off).
     swing_feedforward: float = 0.0
     # [rad per m/s] Beyond the paper, a stride for the forward command: each leg's hip pitch gets
     # stride_feedforward x v_cmd_x x cos(leg angle) towards the front, so the thigh is furthest forward where the clock

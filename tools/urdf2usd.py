@@ -19,9 +19,9 @@ from cra_warp.usd import ConversionError, convert, parse_urdf
 
 
 def _robot_configs():
-    from robots.adam_lite.config import ADAM_LITE  # imported late: the converter itself needs no robot package
+    from robots import ROBOTS  # imported late: the converter itself needs no robot package
 
-    return {ADAM_LITE.name: ADAM_LITE}
+    return {name: r.robot for name, r in ROBOTS.items()}
 
 
 def main(argv: list[str] | None = None) -> int:
