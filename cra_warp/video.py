@@ -18,11 +18,17 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display (before mujoco is imported)
 
 SIZE = (360, 640)  # height, width [px]: 16:9, what a README column shows without scaling up
-FPS = 25.0         # GIF frames per second (GIF delays are whole 10 ms: 40 ms)
+FPS = 50 / 3       # GIF frames per second: every third 50 Hz step, a delay of 60 ms (GIF delays are whole 10 ms);
+                   # walking reads at it, and a third fewer frames than at 25/s keeps a 6 s clip near 2 MB
 CHECK = 0.5        # side of a floor check [m]: steps and speed read against it
 COLORS = 64        # GIF palette size, shared by all frames
 FONT_PX = 15       # caption text height
 LEFT, RIGHT, MIDDLE = (0.2, 0.45, 0.9, 1), (0.95, 0.5, 0.15, 1), (0.8, 0.8, 0.82, 1)  # skeleton colours by side
+
+
+def frame_every(dt: float) -> int:
+    """Steps of ``dt`` [s] per GIF frame: FPS as nearly as whole steps allow (the GIF's rate is then 1 / (that x dt))."""
+    return max(1, round(1 / (FPS * dt)))
 
 
 def _side_colour(name: str) -> tuple[float, ...]:
@@ -38,8 +44,10 @@ def add_skeleton(spec) -> None:
     light and a spotlight that follows the robot and casts its shadow."""
     import mujoco
 
+    for element in [*spec.lights, *(t for t in spec.textures if t.type == mujoco.mjtTexture.mjTEXTURE_SKYBOX)]:
+        spec.delete(element)  # a scene file's own lights and sky (the vendor's scene.xml): ours are set for these
     tex_role = mujoco.mjtTextureRole.mjTEXROLE_RGB
-    for name, rgb1, rgb2 in (("video_floor", [0.82, 0.84, 0.86], [0.58, 0.62, 0.66]),
+    for name, rgb1, rgb2 in (("video_floor", [0.76, 0.78, 0.8], [0.52, 0.56, 0.6]),
                              ("video_terrain", [0.86, 0.78, 0.64], [0.66, 0.58, 0.46])):
         # the builtin checker is 2 x 2 checks; texuniform repeats it per metre of the surface (not per geom)
         spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
@@ -63,9 +71,8 @@ def add_skeleton(spec) -> None:
         for g in body.geoms:
             if g.contype or g.conaffinity or g.rgba[3] == 0:  # its collision geoms (feet), which were not drawn
                 g.rgba, g.group = list(colour), min(g.group, 2)
-    planes = [g for g in world.geoms if g.type == mujoco.mjtGeom.mjGEOM_PLANE]
-    if not planes:
-        planes = [world.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], contype=0, conaffinity=0)]
+    if not any(g.type == mujoco.mjtGeom.mjGEOM_PLANE for g in world.geoms):
+        world.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], contype=0, conaffinity=0)
     for g in world.geoms:
         flat = g.type == mujoco.mjtGeom.mjGEOM_PLANE
         g.material, g.rgba = "video_floor" if flat else "video_terrain", [1, 1, 1, 1]
@@ -73,7 +80,7 @@ def add_skeleton(spec) -> None:
             g.size = [0, 0, g.size[2] or 0.05]  # drawn without edges (a plane collides as infinite at any size)
     world.add_light(pos=[0, 0, 5], dir=[0.3, 0.2, -1], type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, castshadow=False,
                     diffuse=[0.3] * 3, specular=[0.1] * 3)
-    if root is not None:  # a spot above and behind the walker, its shadow showing which foot is down
+    if root is not None:  # a spot above the walker, its shadow showing which foot is down
         root.add_light(mode=mujoco.mjtCamLight.mjCAMLIGHT_TRACKCOM, pos=[1.0, 1.5, 4.0], dir=[-0.25, -0.375, -1],
                        castshadow=True, cutoff=40, exponent=1, diffuse=[0.55] * 3, specular=[0.2] * 3)
     spec.visual.headlight.ambient, spec.visual.headlight.diffuse = [0.35] * 3, [0.2] * 3
@@ -168,26 +175,33 @@ def check_gif_path(path: Path, flag: str = "--video") -> str | None:
 
 
 class RolloutVideo:
-    """Robot 0 of a batched world drawn through the training robot's MjModel (the model the MuJoCo C backend runs,
-    with the whole terrain), one frame per ``frame()`` call; ``close()`` writes the GIF."""
+    """Robot ``robot`` of a batched world drawn through the training robot's MjModel (the model the MuJoCo C backend
+    runs, with the whole terrain), one frame per ``frame()`` call, the camera beside its path when it walks along
+    ``heading`` [rad] (world yaw); ``close()`` writes the GIF."""
 
-    def __init__(self, world, terrain, path: Path, fps: float):
+    def __init__(self, world, terrain, path: Path, fps: float, robot: int = 0, heading: float = 0.0):
+        import math
+
         import mujoco
 
         from cra_warp.sim import mjcf
 
         spec = mujoco.MjSpec.from_string(mjcf(world.robot, world.cfg, terrain))
         add_skeleton(spec)
+        for g in spec.worldbody.geoms:  # drawn only, never stepped: the floor 2 mm under terrain boxes whose tops lie
+            if g.type == mujoco.mjtGeom.mjGEOM_PLANE:  # on it (the two surfaces would fight for the same pixels)
+                g.pos = [g.pos[0], g.pos[1], g.pos[2] - 0.002]
         self.model = spec.compile()
         self.data = mujoco.MjData(self.model)
-        self.world, self.path, self.fps, self.frames = world, path, fps, []
+        self.world, self.robot, self.path, self.fps, self.frames = world, robot, path, fps, []
         self.renderer = offscreen_renderer(self.model)
         self.camera = tracking_camera(int(self.model.jnt_bodyid[0]))
+        self.camera.camera.azimuth += math.degrees(heading)
 
     def frame(self, lines: list[tuple[str, tuple[int, int, int]]]) -> None:
         import mujoco
 
-        q = self.world.joint_q[0].detach().cpu().double().numpy()
+        q = self.world.joint_q[self.robot].detach().cpu().double().numpy()
         self.data.qpos[:3] = q[:3]
         self.data.qpos[3:7] = q[[6, 3, 4, 5]]  # xyzw -> MuJoCo's wxyz
         self.data.qpos[7:] = q[7:]

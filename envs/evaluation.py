@@ -93,9 +93,10 @@ def trial_steps(dep, speed: float, dt: float) -> torch.Tensor:
     return ((2 * dist / speed + 2.0) / dt).ceil().long()
 
 
-def evaluate(env, act, speed: float) -> Tally:
+def evaluate(env, act, speed: float, on_step=None) -> Tally:
     """Run one deployment (env on the "eval" terrain) until every robot succeeded, fell or ended its trial.
-    ``act(obs, dones)`` returns actions and resets whatever recurrent state it keeps for the robots in ``dones``."""
+    ``act(obs, dones)`` returns actions and resets whatever recurrent state it keeps for the robots in ``dones``;
+    ``on_step(k, tally)``, if given, is called after each step's tally (a video records there)."""
     dep = env.ground.deployment
     steps = trial_steps(dep, speed, env.dt)
     tally = Tally(env.num_envs, env.device)
@@ -112,6 +113,8 @@ def evaluate(env, act, speed: float) -> Tally:
             # a fallen robot was respawned inside step(): its position no longer tells where it got to
             tally.walk(env, (k < steps) & ~dones)  # before the update: the step that ends a trial counts
             tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps)
+            if on_step is not None:
+                on_step(k, tally)
             # a success or a fall is final: once every robot has one or is past its trial, the rest changes nothing
             if k % 25 == 0 and not ((k < steps) & ~tally.succeeded & ~tally.fell).any():
                 break

@@ -1,6 +1,8 @@
 """The evaluation library (envs/evaluation.py) and its command line (cra-eval): success bookkeeping, a deployment
 on the evaluation course, the statistics, bad input."""
 
+import json
+
 import pytest
 import torch
 
@@ -118,6 +120,9 @@ def test_eval_terrain_needs_whole_levels():
     (["--agent-stand", "--trial", "flat", "--yaw-rates", "0.3", "--turn-speed", "0"], "--turn-speed"),
     (["--agent-stand", "--trial", "flat", "--robots", "2", "--seconds", "2.1", "--yaw-rates", "3"],
      "training range"),
+    (["--agent-stand", "--video", "walk.mp4"], ".gif"),
+    (["--agent-stand", "--trial", "flat", "--video", "walk.gif"], "course run"),
+    (["--agent-stand", "--video", "walk.gif", "--video-level", "7"], "--video-level"),
 ])
 def test_eval_rejects_bad_values(capsys, args, word):
     one_line_error(capsys, eval_cli.main(args), word)
@@ -319,3 +324,24 @@ def test_the_course_records_how_a_robot_walks_on_its_way(course_env):
     assert abs(gait["pitch_deg"]) < 10.0
     assert tally.gait(every, uses_clock=False)["gait_rate"] is None
     assert all(v is None for v in tally.gait(torch.zeros_like(every)).values())
+
+
+@pytest.mark.slow
+def test_eval_draws_one_course_robot_on_its_terrain(tmp_path):
+    """--video: the first robot on --video-level of the first kind, on the course's terrain boxes (drawn in their
+    own checker, sand-coloured), at the GIF size; the other levels' robots are evaluated as without it."""
+    import numpy as np
+    from PIL import Image
+
+    from cra_warp import video
+
+    gif, out = tmp_path / "down.gif", tmp_path / "eval.json"
+    assert eval_cli.main(["--agent-stand", "--kinds", "stairs_descend", "--robots-per-level", "1", "--speeds", "8",
+                          "--sim", "mujoco", "--video-level", "2", "--video", str(gif), "--json", str(out)]) == 0
+    assert len(json.loads(out.read_text())) == 7
+    im = Image.open(gif)
+    assert im.size == video.SIZE[::-1] and im.n_frames >= 10
+    im.seek(im.n_frames // 2)
+    rgb = np.asarray(im.convert("RGB")).astype(int)
+    sand = (rgb[..., 0] - rgb[..., 2] > 25) & (rgb[..., 0] > 100) & (rgb[..., 0] - rgb[..., 2] < 110)
+    assert sand[180:].mean() > 0.2, "the stairs' platform and steps around the robot"

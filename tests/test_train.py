@@ -195,7 +195,8 @@ def test_play_draws_robot_0_into_a_gif(tmp_path):
     assert play_cli.main(["--agent", "stand", "--num-envs", "2", "--steps", "20", "--sim", "mujoco",
                           "--video", str(gif)]) == 0
     im = Image.open(gif)
-    assert im.n_frames == 10 and im.size == (640, 360) == video.SIZE[::-1]  # every other 50 Hz step: 25 frames/s
+    assert im.n_frames == 7 and im.size == (640, 360) == video.SIZE[::-1]  # every third 50 Hz step: 16.7 frames/s
+    assert im.info["duration"] == 60
     assert gif.stat().st_size < 40_000 * im.n_frames, "one shared palette, no dither: a README-sized file"
     im.seek(im.n_frames - 1)
     rgb = np.asarray(im.convert("RGB")).astype(int)

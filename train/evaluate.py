@@ -4,6 +4,7 @@ or the flat-ground walking trial.
     cra-eval runs/<run>/model_120.pt                          # one policy, 10 robots per difficulty level
     cra-eval a/model_120.pt b/model_120.pt --agent-stand --speeds 0.3 0.6 --json eval.json
     cra-eval runs/<run>/model_900.pt --trial flat --robots 200 --seconds 20   # walking on flat ground
+    cra-eval runs/<run>/model_900.pt --kinds stairs_descend --video-level 1 --video down.gif  # and one robot's GIF
 
 Every (kind, level) of cra_warp.terrain.course gets --robots-per-level robots at its start, facing its target
 (the paper deploys 200 per level; 10 keeps a CPU run at a few minutes). Each robot is commanded forward at the
@@ -64,6 +65,10 @@ class EvalArgs:
     protocol: Literal["none", "paper"] = "none"      # paper: the speed sweep and the 0.15 m/s terrain ablation
     ablation_robots: int = 25                        # paper protocol: robots per level of the ablation
     csv: Path | None = None                          # write the records (and the seed means) as CSV
+    # course: a GIF of the first robot on --video-level of the first kind (first policy and speed), to its target
+    # or its fall (MuJoCo's offscreen renderer, 16.7 frames/s, a camera beside its path)
+    video: Path | None = None
+    video_level: int = 0                             # the course level of --video (0: the easiest)
 
 
 # The paper's protocol (IV-B): its velocity range is not given in numbers; ours spans the training commands.
@@ -157,8 +162,49 @@ def _run(a: EvalArgs) -> list[dict]:
             overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
                              episode_length_s=1e6)  # no time-outs: the trial clock is the evaluator's
             env, act = make(num_envs, overrides)
-            records += course_records(env, evaluate(env, act, speed), name, speed, a.robots_per_level)
+            video = _CourseVideo(env, speed, a) if a.video is not None and not records else None
+            records += course_records(env, evaluate(env, act, speed, video), name, speed, a.robots_per_level)
+            if video is not None:
+                video.close()
     return records
+
+
+class _CourseVideo:
+    """evaluate()'s on_step that draws the first robot on ``a.video_level`` of the first kind at video.FPS,
+    until it reaches its target (and half a second beyond) or falls (the env respawns a fallen robot at once: the
+    frame after a fall would show it back at the start)."""
+
+    def __init__(self, env, speed: float, a: EvalArgs):
+        from cra_warp.video import FPS, RolloutVideo, frame_every
+
+        dep, course = env.ground.deployment, env.ground.course
+        self.i = int(((dep.kind == 0) & (dep.level == a.video_level)).nonzero()[0])
+        self.every, self.tail = frame_every(env.dt), round(0.5 * FPS)
+        self.gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (self.every * env.dt), robot=self.i,
+                                heading=float(dep.yaw[self.i]))
+        kind, difficulty = course.kinds[0], float(course.difficulty[0, a.video_level])
+        unit, scale = ("deg", 1) if kind.startswith("slope") else ("cm", 100)
+        self.title = f"{kind} {difficulty * scale:.0f} {unit}"
+        self.speed, self.dt, self.done = speed, env.dt, False
+
+    def __call__(self, k: int, tally) -> None:
+        if self.done:
+            return
+        fell, reached = bool(tally.fell[self.i]), bool(tally.succeeded[self.i])
+        if fell:
+            self.done = True
+            self.gif.frames.extend(self.gif.frames[-1:] * self.tail)  # hold the last frame before the respawn
+            return
+        if k % self.every == 0:
+            state = ("reached the target", (120, 255, 120)) if reached else ("on its way", (255, 255, 255))
+            self.gif.frame([(f"{self.title}   cmd {self.speed:.2f} m/s   t {(k + 1) * self.dt:5.2f} s",
+                             (255, 255, 255)), state])
+        if reached:
+            self.tail -= 1
+            self.done = self.tail <= 0
+
+    def close(self) -> None:
+        self.gif.close()
 
 
 def short_names(policies: list[str]) -> dict[str, str]:
@@ -258,6 +304,17 @@ def main(argv: list[str] | None = None) -> int:
                 raise UsageError(f"{flag} {path}: no such directory {path.parent}")
         if a.protocol == "paper" and a.trial != "course":
             raise UsageError("--protocol paper runs the course (not --trial flat)")
+        if a.video is not None:
+            from cra_warp.terrain.course import EvalCourseConfig
+            from cra_warp.video import check_gif_path
+
+            if a.trial != "course" or a.protocol != "none":
+                raise UsageError("--video records a course run (not --trial flat or --protocol paper)")
+            if why := check_gif_path(a.video):
+                raise UsageError(why)
+            if not 0 <= a.video_level < EvalCourseConfig().num_levels:
+                raise UsageError(f"--video-level must be 0 ... {EvalCourseConfig().num_levels - 1}, "
+                                 f"got {a.video_level}")
         check_sim(a.sim, a.device)
         check_device(a.device)
         records = run(a)

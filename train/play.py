@@ -21,7 +21,7 @@ import tyro
 from tyro.conf import Positional
 
 from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args
-from cra_warp.video import FPS, RolloutVideo, check_gif_path
+from cra_warp.video import RolloutVideo, check_gif_path, frame_every
 from envs.methods import METHODS, Method, Task
 
 
@@ -37,7 +37,7 @@ class PlayArgs:
     device: str = "cpu"
     sim: Sim | None = None             # default: the checkpoint's (newton for stand/zero/random)
     usd: Path | None = None            # write the rollout as an animated USD stage here
-    video: Path | None = None          # write robot 0's rollout as a GIF here (25 frames/s, a tracking camera)
+    video: Path | None = None          # write robot 0's rollout as a GIF here (16.7 frames/s, a camera following it)
     seed: int = 0
     command: tuple[float, float] | None = None  # hold (v_x, v_y) [m/s], heading 0 (yaw rate 0 without heading mode)
     # nominal robots: no randomised physics, pushes or shoves (as in cra-eval's trials); default: the training's
@@ -93,7 +93,7 @@ def run(a: PlayArgs) -> dict:
     viewer = None
     if a.usd is not None:
         viewer = env.world.usd_recorder(str(a.usd), fps=round(1 / env.dt), num_frames=a.steps)
-    gif, falls_0, every = None, 0, max(1, round(1 / (FPS * env.dt)))
+    gif, falls_0, every = None, 0, frame_every(env.dt)
     if a.video is not None:
         gif = RolloutVideo(env.world, env.ground.boxes, a.video, fps=1 / (every * env.dt))
     held = None

@@ -206,6 +206,7 @@ class Trial:
         steps = round(seconds / p.control_dt)
         errors, touchdowns, in_contact, fell_at = [], 0, np.ones(len(self.feet), bool), None
         renderer = camera = None
+        every = video.frame_every(p.control_dt)
         if frames is not None:
             renderer, camera = video.offscreen_renderer(m), video.tracking_camera(self.base_body)
         try:
@@ -228,7 +229,7 @@ class Trial:
                 if t > 1.0:
                     c, s = math.cos(yaw), math.sin(yaw)
                     errors.append(abs(c * d.qvel[0] + s * d.qvel[1] - speed))
-                if renderer is not None and k % 2 == 0:
+                if renderer is not None and k % every == 0:
                     frames.append(self._frame(renderer, camera, speed, t, fell_at))
                 height = d.qpos[2] - self.terrain.height(d.qpos[0])
                 if height < self.fall_height or gravity[2] > self.fall_gz or not np.isfinite(d.qpos).all():
@@ -273,7 +274,7 @@ def run(a: Sim2SimArgs) -> dict:
         for r in range(a.trials):
             records.append(trial.run(speed, a.seconds, a.seed + r, frames if not records else None))
     if frames:
-        video.save_gif(frames, a.video, fps=video.FPS)
+        video.save_gif(frames, a.video, fps=1 / (video.frame_every(policy.control_dt) * policy.control_dt))
     success = float(np.mean([not r["fell"] for r in records]))
     errs = [r["tracking_error"] for r in records if r["tracking_error"] is not None]
     err = float(np.mean(errs)) if errs else None
