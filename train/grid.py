@@ -1,8 +1,15 @@
 """cra-grid: the paper's whole comparison in one command: train every method and seed, evaluate them with the
-paper's protocol, draw its figures and the table.
+paper's protocol, draw its figures and the table. Two smaller studies of the same methods (--study; train/studies.py
+says what each runs, writes and how it resumes):
 
     cra-grid --scale cpu --out grid/                         # this 2-core CPU (see SCALES)
     cra-grid --scale gpu --methods ours dwl dreamwaq --seeds 1 2 3 --out grid/
+    cra-grid --study fork --out fork/   # rough fine-tuning of every method that can fork from one flat walker
+    cra-grid --study walk --out walk/   # env steps to walk from scratch on flat ground, every method
+
+--study comparison (the default) is the grid below; fork and walk take the simulator and device from --scale
+(cpu: MuJoCo on the CPU) and set their own budgets (--iterations, --num-envs, --budget). Every study resumes by
+re-running the same command, on this machine or, after cra-campaign save / restore, on another.
 
     <out>/train/<method>-s<seed>/   cra-train runs (rough terrain); resumed where a previous call stopped
     <out>/eval/<method>-s<seed>.json  cra-eval --protocol paper of the run's final checkpoint (and its .log)
@@ -52,25 +59,41 @@ SCALES = {
 
 
 RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices --help lists
+DEFAULT_SEEDS = (1, 2, 3)
+WALKER = Path(__file__).resolve().parent.parent / "robots" / "adam_lite" / "policies" / "flat_walk_v2" / "checkpoint.pt"
 FIGURES = ("terrain_level", "success_vs_speed", "success_vs_terrain", "torque_velocity")
+STUDIES = ("comparison", "fork", "walk")   # train/studies.py: fork and walk
+StudyName = Literal[STUDIES]  # type: ignore[valid-type]  # the choices --help lists
 
 
 @dataclass
 class GridArgs:
-    scale: str = "cpu"                                  # cpu | gpu (see SCALES)
-    methods: tuple[Method, ...] = tuple(METHODS)        # registered methods (cra-train --method)
+    # comparison: the paper's grid of every method; fork: rough fine-tuning from one walker; walk: time to walk
+    # from scratch (train/studies.py)
+    study: StudyName = "comparison"
+    scale: str = "cpu"                                  # cpu | gpu (see SCALES); fork, walk: their sim and device
+    # registered methods (cra-train --method); fork leaves out (saying why) those whose actor cannot fork
+    methods: tuple[Method, ...] = tuple(METHODS)
     recipe: RecipeName = DEFAULT_RECIPE                 # cra-train --recipe of every run (envs/recipes.py)
-    seeds: tuple[int, ...] = (1, 2, 3)
+    seeds: tuple[int, ...] | None = None                # default 1 2 3 (walk: 1 2)
     out: Path = Path("grid")
-    iterations: int | None = None                       # the scale's unless given
-    num_envs: int | None = None                         # the scale's unless given
+    iterations: int | None = None                       # the scale's unless given (fork: 300 for every run)
+    num_envs: int | None = None                         # the scale's unless given (fork, walk: 256)
     parallel: int | None = None                         # training processes at a time (cpu: one core each)
-    # cra-eval arguments instead of the scale's, as one string: --eval-args="--speeds 1 --robots-per-level 2"
+    # cra-eval arguments instead of the scale's (fork, walk: the study's), as one string:
+    # --eval-args="--speeds 1 --robots-per-level 2"
     eval_args: str = ""
     # for a method that cannot use part of the recipe (clock_free: its gait.* keys), also train ours without that
     # part ("ours_as_clock_free"), so the method is compared with ours on the same terms
     fair_pairs: bool = True
     dry_run: bool = False                               # print what would run, run nothing
+    # fork: the checkpoint every run starts from (cra-train --init)
+    walker: Path = WALKER
+    # fork: cra-probe arguments of each run's probe, as one string (default: cra-probe's own)
+    probe_args: str = ""
+    budget: int = 30_000_000                            # walk: env steps per run at most
+    check_every: int = 100                              # walk: iterations between flat trials
+    walk_error: float = 0.15                            # walk: v_x error [m/s] at most (and every robot up) to walk
 
 
 def _newest(run_dir: Path) -> tuple[int, Path] | None:
@@ -91,8 +114,9 @@ def unusable(a: GridArgs, method: str) -> dict[str, object]:
     from envs.loco_config import LocoConfig
     from envs.recipes import resolve
 
-    _, dropped = resolve(a.recipe, "rough", uses_clock=METHODS[method].uses_clock)
-    full, _ = resolve(a.recipe, "rough")
+    task = "flat" if a.study == "walk" else "rough"
+    _, dropped = resolve(a.recipe, task, uses_clock=METHODS[method].uses_clock)
+    full, _ = resolve(a.recipe, task)
     base = to_data(LocoConfig())
     defaults = {}
     for key in dropped:
@@ -130,7 +154,7 @@ def plan(a: GridArgs) -> list[dict]:
     jobs = []
     for m, method in labels(a).items():
         left_out = unusable(a, m[len(PAIR):]) if m.startswith(PAIR) else {}
-        for seed in a.seeds:
+        for seed in a.seeds or DEFAULT_SEEDS:
             run_dir = a.out / "train" / f"{m}-s{seed}"
             newest = _newest(run_dir)
             done_it = newest[0] + 1 if newest else 0
@@ -228,6 +252,10 @@ def run(a: GridArgs, log=print) -> list[dict]:
     from cra_warp.atomic_json import write_json
     from envs.evaluation import method_summary, seed_means, write_csv
 
+    if a.study != "comparison":
+        from train import studies
+
+        return studies.run(a, log)
     jobs = plan(a)
     recipes = {m: recipe_of(a, m) for m in labels(a)}
     for m, said in recipes.items():
@@ -276,15 +304,21 @@ def main(argv: list[str] | None = None) -> int:
         if a.scale not in SCALES:
             raise UsageError(f"--scale must be one of {', '.join(SCALES)}, got {a.scale!r}")
         bad = [m for m in a.methods if m not in METHODS]
-        if bad or not a.methods or not a.seeds:
+        if bad or not a.methods or a.seeds == ():
             raise UsageError(f"--methods must be among {', '.join(METHODS)} and --seeds non-empty, got "
                              f"{', '.join(bad) or 'none'}")
-        for flag, v in (("--iterations", a.iterations), ("--num-envs", a.num_envs), ("--parallel", a.parallel)):
+        for flag, v in (("--iterations", a.iterations), ("--num-envs", a.num_envs), ("--parallel", a.parallel),
+                        ("--budget", a.budget), ("--check-every", a.check_every)):
             if v is not None and v < 1:
                 raise UsageError(f"{flag} must be >= 1, got {v}")
         if a.out.exists() and not a.out.is_dir():
             raise UsageError(f"--out {a.out}: not a directory")
-        a = replace(a, methods=tuple(dict.fromkeys(a.methods)), seeds=tuple(dict.fromkeys(a.seeds)))
+        a = replace(a, methods=tuple(dict.fromkeys(a.methods)),
+                    seeds=tuple(dict.fromkeys(a.seeds)) if a.seeds else None)
+        if a.study != "comparison":
+            from train import studies
+
+            a = studies.checked(a)
         run(a)
     except UsageError as e:
         print(f"cra-grid: {e}", file=sys.stderr)
