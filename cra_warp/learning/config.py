@@ -195,9 +195,10 @@ class LearnerConfig:
     # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
     fork_learning_rate: float = 5e-5
     fork_critic_warmup: int = 10
-    # The warm-up's rate and value loss: unclipped at ppo.learning_rate (CRAPPO.update says why); None = the run's
-    # rate with PPO's clip, as before
-    critic_warmup_learning_rate: float | None = 1e-3
+    # The warm-up's own rate, its value loss then unclipped (CRAPPO.update); None = the run's rate with PPO's clip.
+    # Off: 50 warm-up iterations at 1e-3 fitted a rough_walk_v0 fork's critic (value loss 4400 -> ~1000) but the
+    # fork unlearnt walking sooner, not later (docs/experiments.md, the fork regression)
+    critic_warmup_learning_rate: float | None = None
     # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
     # maps come from the task (the runner reads them off the env).
     symmetry_weight: float = 0.0
