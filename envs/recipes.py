@@ -12,7 +12,7 @@ learner paths under "learner.") that cra-train applies on top of the dataclass d
   commands at their full range from the start (the randomisation curriculum kept) and a slower difficulty step.
   Heading mode differs by task as it did between the two policies: off on flat ground (flat_walk_v2: a robot that
   always turns is not punished under heading mode), on for rough ground (rough_walk_v0: robots walk at the
-  terrain instead of circling). tests/test_recipes.py holds it to both policies' config.json.
+  terrain instead of circling). tests/envs/test_recipes.py holds it to both policies' config.json.
 
 A method without a clock (clock_free: no clock inputs, no gait actions) cannot use a recipe's clock settings
 (gait.*: the feedforward, alpha, beta_scale): ``resolve`` leaves them out and says so, and the env skips the

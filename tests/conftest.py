@@ -6,10 +6,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robots.adam_lite.config import ADAM_LITE
+
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 REFERENCE = SHARED / "reference" / "adam_lite"
-# The device of the tests that build Newton worlds and the task on them (test_world, test_env): the CPU unless
-# CRA_TEST_DEVICE names another (tools/gpu_check.sh runs them on cuda:0). The MuJoCo C backend is CPU-only.
+# The device of the tests that build Newton worlds and the task on them (cra_warp/sim/test_sim.py,
+# envs/test_locomotion.py): the CPU unless CRA_TEST_DEVICE names another (tools/gpu_check.sh runs them on cuda:0).
+# The MuJoCo C backend is CPU-only.
 DEVICE = os.environ.get("CRA_TEST_DEVICE", "cpu")
 
 
@@ -85,3 +88,7 @@ PAPER_TABLE_I = {
     "feet_ground_parallel": -2.0, "feet_contact_force": -1e-2, "feet_parallel": -2.5, "contact_momentum": -2.5e-2,
     "contact_pattern": 1.0,
 }
+
+
+# The Adam Lite URDF the converter tests (cra_warp/test_usd.py, tools/test_urdf2usd.py) start from
+OUR_URDF = ADAM_LITE.urdf_path

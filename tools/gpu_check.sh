@@ -3,7 +3,7 @@
 #
 #   bash tools/gpu_check.sh [cuda:0]
 #
-# 1. the simulator and task tests (tests/test_world.py, tests/test_env.py) on the device (CRA_TEST_DEVICE; the
+# 1. the simulator and task tests (tests/cra_warp/sim/, tests/envs/test_locomotion.py) on the device (CRA_TEST_DEVICE; the
 #    MuJoCo C rows stay on the CPU), 2. cra-train for 50 iterations at N=4096 on flat and on rough ground,
 # 3. cra-bench of the Newton world and the full task at N=1024 and 4096 (tools/results/bench_cuda.json).
 # Logs go to runs/gpu_check/; a summary is printed at the end. Exit 1 if any step failed, 2 if there is no device.
@@ -27,7 +27,7 @@ run_step() {  # name, command...: its output goes to $out/<name>.log
   else failed=1; summary+=("$name: FAILED (see $out/$name.log)"); fi
 }
 
-run_step tests env CRA_TEST_DEVICE="$dev" "$py" -m pytest -q tests/test_world.py tests/test_env.py
+run_step tests env CRA_TEST_DEVICE="$dev" "$py" -m pytest -q tests/cra_warp/sim tests/envs/test_locomotion.py
 for task in flat rough; do
   run_step "train_$task" .venv/bin/cra-train --device "$dev" --num-envs 4096 --task "$task" --max-iterations 50 \
     --save-interval 50 --log-dir "$out" --no-export

@@ -203,7 +203,7 @@ class LearnerConfig:
     # maps come from the task (the runner reads them off the env).
     symmetry_weight: float = 0.0
     # How the update reads the rollout (CRAPPO): the critic's values in one pass over the whole rollout after
-    # collection (equal to rsl-rl's per-step values, tests/test_learning.py; False: rsl-rl's per step), and
+    # collection (equal to rsl-rl's per-step values, tests/cra_warp/learning/test_ppo_whole_envs.py; False: rsl-rl's per step), and
     # mini-batches of whole environments without padding (equal to rsl-rl's padded ones; slower on our CPUs)
     batched_values: bool = True
     whole_env_update: bool = False

@@ -18,7 +18,7 @@ Where the time goes on a CPU (issue 34): with ``batched_values`` (the default) t
 rollout loop. ``act`` steps the actor only; ``compute_returns`` runs the critic once over the whole [T, N] rollout
 (one GRU pass with the state zeroed after each done, the CNN and the value head batched), saves its states where
 rsl-rl's storage keeps them, then applies rsl-rl's time-out bootstrap and GAE to those values: the same numbers
-(tests/test_learning_whole_envs.py).
+(tests/cra_warp/learning/test_ppo_whole_envs.py).
 ``whole_env_update`` (off by default) replaces rsl-rl's padded recurrent mini-batches by whole environments over
 the fixed window, the GRUs restarting at dones inside the sequence (models.gru_sequence); the same losses, KL
 schedule, clipping and step, tested equal to rsl-rl's update. Off because it measured slower on the CPU: the

@@ -1,6 +1,6 @@
 """Adam Lite in the locomotion task: the joint groups its rewards and gait clock read, the scripted stand's gains and
 the task's numbers at Adam Lite's size (robots.ROBOTS registers it as "adam_lite"). Every shipped policy trained with
-these; their config.json files hold the numbers (tests/test_robots.py checks both agree).
+these; their config.json files hold the numbers (tests/robots/test_robots.py checks both agree).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ ADAM_LITE_LOCO = LocoRobotConfig(
     swing_joints=tuple(tuple(f"{j}_{s}" for j in ("hipPitch", "kneePitch", "anklePitch")) for s in _SIDES),
     swing_profile=(-1.0, 2.0, -1.0),
     # both hip roll axes point forward-ish and both hip yaw axes up: on either leg a positive angle moves the sole
-    # left and turns its toes left (tests/test_env.py checks it through forward kinematics)
+    # left and turns its toes left (tests/envs/test_locomotion.py checks it through forward kinematics)
     lateral_joints=(("hipRoll_Left", 1.0), ("hipRoll_Right", 1.0)),
     turn_joints=(("hipYaw_Left", 1.0), ("hipYaw_Right", 1.0)),
 )

@@ -1,0 +1,265 @@
+"""cra-grid --study fork | walk: the fork study starts every arm from the walker with the same budget and leaves out
+the methods that cannot fork; the walk study stops a run at its first walking check and, resumed, repeats no
+check; cra-campaign carries a study's runs (and their check records) to another machine. A tiny study of each
+runs end to end (slow)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import one_line_error
+from train import grid, studies
+
+
+def _flag(cmd: list[str], flag: str) -> str:
+    return cmd[cmd.index(flag) + 1]
+
+
+def _ckpt(run_dir: Path, it: int) -> Path:
+    """A stand-in checkpoint file (the plans look at names only)."""
+    (run_dir / "rough_x").mkdir(parents=True, exist_ok=True)
+    path = run_dir / "rough_x" / f"model_{it}.pt"
+    path.write_bytes(b"")
+    return path
+
+
+def test_fork_plan_starts_every_arm_from_the_walker_with_one_budget(tmp_path):
+    lines = []
+    a = grid.GridArgs(study="fork", seeds=(1, 2), out=tmp_path, iterations=7, dry_run=True)
+    grid.run(a, log=lines.append)
+    left = {line.split()[0]: line for line in lines if "left out: cannot fork" in line}
+    assert set(left) == {"clock_free", "dreamwaq", "dwl"}, lines
+    cmds = {line.split(":")[0]: line.split("training: ")[1].split() for line in lines if "training: " in line}
+    assert set(cmds) == {f"{m} seed {s}" for m in ("ours", "sequential", "no_contrast", "fixed_cycle")
+                         for s in (1, 2)}
+    for name, cmd in cmds.items():
+        assert cmd[cmd.index("-m") + 1] == "train.train" and _flag(cmd, "--task") == "rough"
+        assert _flag(cmd, "--init") == str(grid.GridArgs.walker) and "--resume" not in cmd
+        assert _flag(cmd, "--max-iterations") == "7" and _flag(cmd, "--num-envs") == "256"
+        assert _flag(cmd, "--method") == name.split()[0] and _flag(cmd, "--seed") == name.split()[-1]
+        assert (_flag(cmd, "--save-interval"), _flag(cmd, "--sim"), _flag(cmd, "--recipe")) == ("20", "mujoco", "walk")
+    # an interrupted run resumes (no --init) for what is left; a finished one is evaluated, then probed
+    a = studies.resolved(grid.GridArgs(study="fork", seeds=(1,), out=tmp_path, iterations=7))
+    _ckpt(tmp_path / "train" / "ours-s1", 3)
+    step = studies.fork_step(a, "ours", 1)
+    assert step.what == "training" and "--init" not in step.cmd and _flag(step.cmd, "--max-iterations") == "3"
+    assert _flag(step.cmd, "--resume") == str(tmp_path / "train" / "ours-s1")
+    final = _ckpt(tmp_path / "train" / "dwl-s1", 6)   # any method's paths: the plan reads the disk only
+    step = studies.fork_step(a, "dwl", 1)
+    assert step.what == "evaluating" and step.cmd[3] == str(final) and _flag(step.cmd, "--protocol") == "paper"
+    assert _flag(step.cmd, "--ablation-robots") == "50"
+    (tmp_path / "eval").mkdir()
+    (tmp_path / "eval" / "dwl-s1.json").write_text("[]")
+    step = studies.fork_step(a, "dwl", 1)
+    assert step.what == "probing" and step.cmd[2] == "tools.probe" and step.cmd[3] == str(final)
+    (tmp_path / "eval" / "dwl-s1.probe.json").write_text("[]")
+    assert studies.fork_step(a, "dwl", 1) is None
+
+
+def test_the_methods_that_cannot_fork_are_the_ones_whose_actor_differs():
+    assert [m for m in grid.METHODS if studies.cannot_fork(m) is None] == ["ours", "sequential", "no_contrast",
+                                                                          "fixed_cycle"]
+
+
+def test_walk_plan_trains_every_arm_in_chunks_within_the_budget(tmp_path):
+    lines = []
+    grid.run(grid.GridArgs(study="walk", out=tmp_path, dry_run=True), log=lines.append)
+    cmds = {line.split(":")[0]: line.split("training: ")[1].split() for line in lines if "training: " in line}
+    arms = {name.rsplit(" seed ", 1)[0] for name in cmds}
+    assert arms == set(grid.METHODS) | {"ours_as_clock_free"} and len(cmds) == 2 * len(arms)   # seeds 1 2
+    for name, cmd in cmds.items():
+        assert _flag(cmd, "--task") == "flat" and _flag(cmd, "--max-iterations") == "100"
+        assert "--init" not in cmd and "--resume" not in cmd
+    pair = cmds["ours_as_clock_free seed 1"]
+    assert _flag(pair, "--method") == "ours" and "gait.swing_feedforward=0.0" in pair
+    a = studies.resolved(grid.GridArgs(study="walk", out=tmp_path))
+    at = studies.check_iterations(a)
+    assert at[:2] == [99, 199] and at[-1] == 30_000_000 // (256 * 24) - 1 and len(at) == 49
+
+
+def test_walk_next_stops_at_the_first_walking_check_and_repeats_none():
+    at = [1, 3, 5, 6]
+    ok = {"robots": 4, "robots_up": 4, "vx_error": 0.1}
+    fell = {"robots": 4, "robots_up": 3, "vx_error": 0.1}
+    slow = {"robots": 4, "robots_up": 4, "vx_error": 0.2}
+    assert studies.walk_next([], None, at, 0.15) == ("train", 1)
+    assert studies.walk_next([], 1, at, 0.15) == ("check", 1)
+    assert studies.walk_next([{"iteration": 1, **fell}], 1, at, 0.15) == ("train", 3)
+    assert studies.walk_next([{"iteration": 1, **fell}], 2, at, 0.15) == ("train", 3)   # interrupted mid-chunk
+    assert studies.walk_next([{"iteration": 1, **slow}, {"iteration": 3, **ok}], 3, at, 0.15) == ("walked", None)
+    assert studies.walk_next([{"iteration": 1, **slow}], 1, at, 0.25) == ("walked", None)
+    assert studies.walk_next([{"iteration": 6, **fell}], 6, at, 0.15) == ("not within budget", None)
+
+
+class _Done:
+    """A finished process."""
+    pid, returncode = 0, 0
+
+    def __init__(self, returncode: int = 0):
+        self.returncode = returncode
+
+    def poll(self):
+        return self.returncode
+
+    def terminate(self):
+        pass
+
+
+def _fake_commands(walks_at: dict[str, int], launched: list, fail_check: set | None = None):
+    """A stand-in for subprocess.Popen: training writes the checkpoint the command would end at, the flat trial
+    writes a record whose robots all stay up with v_x error 0.1 from the iteration ``walks_at[method]`` on (before:
+    0.3), and a check of an iteration in ``fail_check`` fails once."""
+    fail_check = set(fail_check or ())
+
+    def popen(cmd, **_):
+        module = cmd[cmd.index("-m") + 1]
+        if module == "train.train":
+            run_dir = Path(_flag(cmd, "--log-dir"))
+            now = max(int(p.stem.split("_")[1]) for p in run_dir.rglob("model_*.pt")) if "--resume" in cmd else -1
+            it = now + int(_flag(cmd, "--max-iterations"))
+            launched.append(("train", run_dir.name, it))
+            _ckpt(run_dir, it)
+            return _Done()
+        ckpt = Path(cmd[3])
+        it, name = int(ckpt.stem.split("_")[1]), ckpt.parent.parent.name
+        if it in fail_check:
+            fail_check.discard(it)
+            return _Done(1)
+        launched.append(("check", name, it))
+        err = 0.1 if it >= walks_at[name.split("-s")[0]] else 0.3
+        Path(_flag(cmd, "--json")).write_text(json.dumps([{"trial": "flat", "speed": 0.5, "robots": 4,
+                                                           "seconds": 3.0, "success_rate": 1.0,
+                                                           "tracking_error": err}]))
+        return _Done()
+    return popen
+
+
+def test_a_walk_study_stops_at_the_first_walking_check_and_resumes_without_repeating_checks(tmp_path):
+    # 8 robots x 24 steps = 192 env steps per iteration; the budget: 10 iterations; a check every 2
+    a = grid.GridArgs(study="walk", methods=("ours", "dwl"), seeds=(1,), out=tmp_path, num_envs=8,
+                      budget=10 * 192, check_every=2, parallel=1, fair_pairs=False)
+    launched, lines = [], []
+    popen = _fake_commands({"ours": 5, "dwl": 99}, launched, fail_check={7})
+    with pytest.raises(grid.UsageError, match="checking dwl seed 1 failed"):
+        studies.run(a, log=lines.append, popen=popen)   # dwl's check at iteration 7 fails: the study stops there
+    ours = json.loads((tmp_path / "walk" / "ours-s1.json").read_text())
+    assert [c["iteration"] for c in ours["checks"]] == [1, 3, 5] and ours["walked"]["iteration"] == 5
+    assert ours["walked"]["env_steps"] == 6 * 192 and not ours["checks"][0]["walking"]
+    first = list(launched)
+    launched.clear()
+    studies.run(a, log=lines.append, popen=popen)       # resumed: dwl goes on from its check at 7; ours is done
+    assert launched == [("check", "dwl-s1", 7), ("train", "dwl-s1", 9), ("check", "dwl-s1", 9)], launched
+    checks = [e for e in first + launched if e[0] == "check"]
+    assert len(checks) == len(set(checks))             # no check twice
+    dwl = json.loads((tmp_path / "walk" / "dwl-s1.json").read_text())
+    assert [c["iteration"] for c in dwl["checks"]] == [1, 3, 5, 7, 9] and dwl["walked"] is None
+    table = json.loads((tmp_path / "table.json").read_text())
+    assert table["arms"]["ours"]["seeds"]["1"]["env_steps"] == 6 * 192
+    assert table["arms"]["ours"]["mean_env_steps"] == 6 * 192
+    assert table["arms"]["dwl"]["seeds"]["1"]["status"] == "not within budget"
+    assert table["arms"]["dwl"]["mean_env_steps"] is None
+    assert "ours,ours,1,walked,1152,5,3" in (tmp_path / "table.csv").read_text()
+    assert (tmp_path / "figures" / "walk_error.png").is_file()
+    drawn = json.loads((tmp_path / "figures" / "walk_error.json").read_text())
+    assert drawn["dwl"]["s1"]["env_steps"] == [2 * 192, 4 * 192, 6 * 192, 8 * 192, 10 * 192]
+    launched.clear()
+    lines.clear()
+    studies.run(a, log=lines.append, popen=popen)       # everything done: nothing runs, the figure is up to date
+    assert launched == [] and any("figures: up to date" in line for line in lines), lines
+
+
+def test_studies_reject_bad_values(capsys, tmp_path):
+    one_line_error(capsys, grid.main(["--study", "fork", "--methods", "dwl", "clock_free", "--out", str(tmp_path)]),
+                   "none of --methods can fork")
+    one_line_error(capsys, grid.main(["--study", "fork", "--walker", str(tmp_path / "x.pt"), "--out",
+                                      str(tmp_path)]), "--walker")
+    one_line_error(capsys, grid.main(["--study", "walk", "--budget", "100", "--out", str(tmp_path)]), "--budget")
+    one_line_error(capsys, grid.main(["--study", "walk", "--iterations", "5", "--out", str(tmp_path)]),
+                   "--iterations")
+    one_line_error(capsys, grid.main(["--study", "walk", "--walk-error", "0", "--out", str(tmp_path)]),
+                   "--walk-error")
+    one_line_error(capsys, grid.main(["--study", "walk", "--check-every", "0", "--out", str(tmp_path)]),
+                   "--check-every")
+    one_line_error(capsys, grid.main(["--study", "sideways"]), "--study")
+
+
+def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
+    """save takes several run directories of one study (and the record beside each), restore puts them back in
+    the study's layout without training, and leaves a run that is further along alone."""
+    import torch
+
+    from train.campaign import CampaignArgs, restore, save
+
+    walk = tmp_path / "walk" / "walk"
+    for name, it in (("ours-s1", 5), ("dwl-s1", 3)):
+        run_dir = walk / name / "flat_x"
+        run_dir.mkdir(parents=True)
+        torch.save({"actor_state_dict": {}, "iter": it, "infos": {"config": {"args": {"num_envs": 8},
+                                                                             "learner": {}}}},
+                   run_dir / f"model_{it}.pt")
+    record = {"checks": [{"iteration": 5, "robots": 4, "robots_up": 3, "vx_error": 0.1}]}
+    (walk / "ours-s1.json").write_text(json.dumps(record))
+    root = tmp_path / "campaigns"
+    folder = save(CampaignArgs("save", "w", (walk / "ours-s1", walk / "dwl-s1"), root=root))
+    manifest = json.loads((folder / "campaign.json").read_text())
+    assert manifest["runs"]["ours-s1"]["record"] == "ours-s1/record.json" and "record" not in manifest["runs"]["dwl-s1"]
+    elsewhere = tmp_path / "other" / "walk"
+    _ckpt(elsewhere / "dwl-s1", 4)    # this machine's dwl is further along than the campaign's
+    restored = restore(CampaignArgs("restore", "w", root=root, out=elsewhere))
+    assert restored == [elsewhere / "ours-s1" / "model_5.pt"]
+    assert json.loads((elsewhere / "ours-s1.json").read_text()) == record
+    a = studies.resolved(grid.GridArgs(study="walk", methods=("ours",), seeds=(1,), out=elsewhere.parent,
+                                       num_envs=8, budget=10 * 192, check_every=2))
+    step = studies.walk_step(a, "ours", "ours", 1)    # the restored run continues after its recorded check
+    assert step.what == "training" and _flag(step.cmd, "--max-iterations") == "2"
+    assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s1")
+
+
+@pytest.mark.slow
+def test_tiny_studies_run_end_to_end(tmp_path, capsys):
+    """A walk study of one arm (8 robots, two chunks of 2 iterations, each checked), then a fork study of one method
+    and seed from the walk run's checkpoint (its robots fall at once, so the terrain level is logged within two
+    iterations; the shipped walker does not fall that soon), for real: training, checks, evaluation, probe,
+    figures, tables; a second call runs nothing."""
+    walk = tmp_path / "walk"
+    args = ["--study", "walk", "--methods", "ours", "--seeds", "1", "--num-envs", "8", "--budget", str(4 * 192),
+            "--check-every", "2", "--parallel", "1", "--out", str(walk),
+            "--eval-args=--speeds 0.5 --robots 2 --seconds 3"]
+    assert grid.main(args) == 0
+    started = [line.split(" (pid")[0] for line in capsys.readouterr().out.splitlines() if " (pid" in line]
+    assert started == ["training ours seed 1", "checking ours seed 1"] * 2, started
+    record = json.loads((walk / "walk" / "ours-s1.json").read_text())
+    assert [c["iteration"] for c in record["checks"]] == [1, 3] and all(c["robots"] == 2 for c in record["checks"])
+    assert [c["env_steps"] for c in record["checks"]] == [2 * 192, 4 * 192]
+    assert json.loads((walk / "table.json").read_text())["arms"]["ours"]["seeds"]["1"]["status"] in (
+        "walked", "not within budget")
+    assert (walk / "figures" / "walk_error.png").is_file()
+    assert grid.main(args) == 0
+    assert " (pid" not in capsys.readouterr().out     # nothing left to run
+
+    walker = max((walk / "walk" / "ours-s1").rglob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
+    fork = tmp_path / "fork"
+    args = ["--study", "fork", "--methods", "ours", "dwl", "--seeds", "1", "--iterations", "2", "--num-envs", "8",
+            "--parallel", "1", "--out", str(fork), "--walker", str(walker),
+            "--eval-args=--robots-per-level 1 --speeds 1.0 --ablation-robots 1 --kinds slope_ascend",
+            "--probe-args=--steps 2 --warmup 0 --robots-per-level 2"]
+    assert grid.main(args) == 0
+    out = capsys.readouterr().out
+    assert "dwl          left out: cannot fork" in out
+    started = [line.split(" (pid")[0] for line in out.splitlines() if " (pid" in line]
+    assert started == ["training ours seed 1", "evaluating ours seed 1", "probing ours seed 1"], started
+    config = json.loads(next((fork / "train" / "ours-s1").rglob("config.json")).read_text())
+    assert config["args"]["init"] == str(walker) and config["args"]["task"] == "rough"
+    records = json.loads((fork / "eval" / "ours-s1.json").read_text())
+    assert {r["protocol"] for r in records} == {"speed_sweep", "ablation"}
+    table = json.loads((fork / "table.json").read_text())
+    assert set(table["probe"]["ours"]) == {"latent", "obs"} and set(table["left_out"]) == {"dwl"}
+    assert {c["kind"] for c in table["ablation"]} == {"slope_ascend"}
+    assert all(c["robots"] == 1 and c["success_ci95"] for c in table["ablation"])
+    for name in studies.FORK_FIGURES:
+        assert (fork / "figures" / f"{name}.png").is_file()
+    assert grid.main(args) == 0
+    assert " (pid" not in capsys.readouterr().out
