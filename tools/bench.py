@@ -192,6 +192,11 @@ def wp_sync(world):
     wp.synchronize_device(world.device)
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    def error(self, message):  # argparse prints the usage too; a bad argument is one line here, exit code 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def _upright(quat_xyzw):
     """Projected gravity z < -0.9: the base is tilted less than ~25 deg."""
     x, y = quat_xyzw[..., 0], quat_xyzw[..., 1]
@@ -342,7 +347,7 @@ def print_table(records: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="cra-bench", description=__doc__.splitlines()[0])
+    p = _OneLineParser(prog="cra-bench", description=__doc__.splitlines()[0])
     p.add_argument("--num-envs", type=int, nargs="+", default=[64, 256, 1024, 4096])
     p.add_argument("--terrain", nargs="+", default=list(TERRAINS), choices=TERRAINS)
     p.add_argument("--engines", nargs="+", default=list(ENGINES), choices=ENGINES)
@@ -367,6 +372,20 @@ def main(argv: list[str] | None = None) -> int:
     bad = [n for n in args.num_envs if n < 2 or n % 2]
     if bad:
         p.error(f"--num-envs must be even and >= 2 (split over 2 processes), got {bad}")
+    # checked before anything runs: a bad value would otherwise end a run of minutes in a traceback
+    if [n for n in args.parallel if n < 1]:
+        p.error(f"--parallel must be >= 1, got {args.parallel}")
+    if not 0.0 <= args.seconds < float("inf") or args.min_steps < 1 or args.warmup < 0:
+        p.error(f"--seconds must be finite and >= 0, --min-steps >= 1 and --warmup >= 0, got {args.seconds}, "
+                f"{args.min_steps}, {args.warmup}")
+    if args.json and not args.json.parent.is_dir():
+        p.error(f"--json {args.json}: no such directory {args.json.parent}")
+    from cra_warp.cli import UsageError, check_device
+
+    try:
+        check_device(args.device)
+    except UsageError as e:
+        p.error(str(e))
 
     records = []
     with tempfile.TemporaryDirectory() as tmp:
