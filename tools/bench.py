@@ -29,6 +29,7 @@ import time
 from pathlib import Path
 
 from cra_warp.atomic_json import write_json
+from cra_warp.machine import cpu_info
 from cra_warp.host_memory import keep_freed_memory
 
 HOLD_S = 0.5       # [s] the bare rollout's robots restart standing this often (a zero action falls in ~1.3 s)
@@ -408,8 +409,9 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_learner:
         records += learner_and_maps(args)
     print_table(records)
-    if args.json:
-        write_json(args.json, records)
+    if args.json:  # every record names the CPU it was measured on (they change between sessions)
+        cpu = cpu_info()
+        write_json(args.json, [{**r, "cpu": cpu} for r in records])
         print(f"wrote {args.json}")
     return 0
 

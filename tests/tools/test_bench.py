@@ -57,4 +57,5 @@ def test_a_tiny_run_writes_what_it_measured(tmp_path):
     (start,) = [rec for rec in records if rec.get("kind") == "start"]
     assert start["cold_start_s"] is None and start["warm_start_s"] > 0  # --no-cold: not measured, JSON null
     assert not any(rec["engine"] in ("learner", "height_maps") for rec in records)  # --no-learner
+    assert all(rec["cpu"]["model"] and "torch_isa" in rec["cpu"] for rec in records)  # the machine, every record
     assert "task_mujoco x1 flat N=2:" in r.stdout and f"wrote {out}" in r.stdout
