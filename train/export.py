@@ -4,9 +4,10 @@
     cra-export runs/<run>/model_40.pt --out deploy/
     cra-export runs/<run>/model_900.pt --out robots/adam_lite/policies/flat_walk --ship   # a policy we ship
 
---ship also writes checkpoint.pt, the checkpoint without what only training needs (critic, contrastive heads,
-optimizer state: cra-play, cra-eval and cra-export read it, --resume does not), and config.json, the run's resolved
-configuration.
+--ship also writes checkpoint.pt, the checkpoint without its optimizer state (cra-play, cra-eval and cra-export read
+it, `cra-train --init` forks from it, --resume does not), and config.json, the run's resolved configuration. It
+keeps the critic and the contrastive heads: a fork that starts them fresh unlearns walking (docs/experiments.md, the
+fork regression).
 
 The JSON carries what a deploy program needs besides the network: the observation (layout, each term's frame,
 scale and update rule), joint order, action clips and scale, reference pose, the PD law with its gains, effort
@@ -137,7 +138,7 @@ def export_run(runner, env, out_dir: Path) -> dict:
 
 
 def ship_checkpoint(checkpoint: Path, out_dir: Path) -> dict:
-    """out_dir/checkpoint.pt (the actor, iteration and run info of ``checkpoint``) and out_dir/config.json."""
+    """out_dir/checkpoint.pt (``checkpoint`` without its optimizer state) and out_dir/config.json."""
     import os
 
     import torch
@@ -147,7 +148,8 @@ def ship_checkpoint(checkpoint: Path, out_dir: Path) -> dict:
 
     saved = read_checkpoint(checkpoint)
     tmp = out_dir / "checkpoint.pt.tmp"
-    torch.save({k: saved[k] for k in ("actor_state_dict", "iter", "infos")}, tmp)
+    keep = ("actor_state_dict", "critic_state_dict", "contrast_state_dict", "iter", "infos")
+    torch.save({k: saved[k] for k in keep if k in saved}, tmp)
     os.replace(tmp, out_dir / "checkpoint.pt")
     write_json(out_dir / "config.json", (saved.get("infos") or {}).get("config"), indent=2)
     return {"checkpoint": out_dir / "checkpoint.pt", "config": out_dir / "config.json"}
@@ -157,7 +159,7 @@ def ship_checkpoint(checkpoint: Path, out_dir: Path) -> dict:
 class ExportArgs:
     checkpoint: Positional[Path]       # a cra-train checkpoint (model_<it>.pt)
     out: Path | None = None            # default: <checkpoint dir>/exported
-    ship: bool = False                 # also the actor-only checkpoint.pt and config.json (see above)
+    ship: bool = False                 # also checkpoint.pt (no optimizer state) and config.json (see above)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -290,9 +290,10 @@ def run(a: TrainArgs):
     if not (math.isfinite(lr) and lr > 0) or min(warmup, learner.critic_warmup) < 0:
         raise UsageError(f"--override: learner.fork_learning_rate must be > 0 and the warm-ups >= 0, got {lr}, "
                          f"{warmup}, {learner.critic_warmup}")
-    has_critic = False
+    has_critic = has_heads = False
     if a.init is not None:  # a fork starts slowly (LearnerConfig.fork_learning_rate says why)
-        has_critic = "critic_state_dict" in read_checkpoint(a.init)
+        saved = read_checkpoint(a.init)
+        has_critic, has_heads = "critic_state_dict" in saved, "contrast_state_dict" in saved
         learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
         learner.critic_warmup = 0 if has_critic else learner.fork_critic_warmup
     run_dir = unused_dir(a.log_dir / f"{a.task}_{a.variant}_{time.strftime('%Y%m%d-%H%M%S')}")
@@ -317,7 +318,10 @@ def run(a: TrainArgs):
             print(f"cra-train: {a.init} has no critic: the critic starts fresh and learns alone for "
                   f"{learner.critic_warmup} iterations", file=sys.stderr)
         with quiet_stdout():
-            infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic})
+            # the heads too where both have them: fresh heads against the critic's features pull a trained actor's
+            # latent somewhere new (docs/experiments.md, the fork regression)
+            heads = has_heads and getattr(runner.alg, "heads", None) is not None
+            infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic, "contrast": heads})
     if "difficulty_level" in (infos or {}):
         env.difficulty.level.fill_(infos["difficulty_level"])
     if "terrain_levels" in (infos or {}) and env.ground.curriculum is not None:

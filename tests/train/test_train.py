@@ -281,6 +281,20 @@ def test_init_forks_a_checkpoints_networks_into_a_new_run(trained, tmp_path, cap
                    "exclude each other")
 
 
+def test_init_carries_the_contrastive_heads_over(trained, tmp_path):
+    """A fork of the same contrast (ours from ours) starts from the checkpoint's heads, not fresh ones: fresh heads
+    against the critic's features pulled forked actors off walking (docs/experiments.md, the fork regression)."""
+    first, _ = trained
+    src = torch.load(first / "model_1.pt", weights_only=False)
+    run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
+                                                        log_dir=tmp_path, sim="mujoco", init=first / "model_1.pt",
+                                                        seed=7))  # fresh heads would start elsewhere than its
+    heads = runner.alg.heads.state_dict()
+    # one iteration at the fork's rate (5e-5, 8 Adam steps) moves a weight by ~4e-4; fresh heads differ by ~0.1
+    drift = max(float((heads[n].cpu() - v).abs().max()) for n, v in src["contrast_state_dict"].items())
+    assert set(heads) == set(src["contrast_state_dict"]) and drift < 1e-2
+
+
 def test_init_from_an_actor_only_policy_warms_its_critic_up(trained, tmp_path):
     """A shipped policy has no critic: the fork's first updates leave its actor (normaliser included) exactly as
     shipped and train the fresh critic."""
