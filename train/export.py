@@ -6,8 +6,8 @@
 
 --ship also writes checkpoint.pt, the checkpoint without its optimizer state (cra-play, cra-eval and cra-export read
 it, `cra-train --init` forks from it, --resume does not), and config.json, the run's resolved configuration. It
-keeps the critic and the contrastive heads: a fork that starts them fresh unlearns walking (docs/experiments.md, the
-fork regression).
+keeps the critic and the contrastive heads, so that a fork (--init) goes on from the networks the policy trained
+with instead of starting a critic and heads fresh.
 
 The JSON carries what a deploy program needs besides the network: the observation (layout, each term's frame,
 scale and update rule), joint order, action clips and scale, reference pose, the PD law with its gains, effort

@@ -55,10 +55,11 @@ class TrainArgs:
     # checkpoint to continue from (iteration count and optimizer state); a directory: its newest model_<it>.pt
     # (highest iteration, then newest run), so a campaign restarts with the same command
     resume: Path | None = None
-    # checkpoint whose actor and critic (with their normalisers; a shipped policy has the actor only) this run
-    # starts from, at iteration 0 with a fresh optimizer and contrastive heads: a fork into another task or variant
-    # (the rough task from a flat walker, an ablation from the same start); its curriculum levels carry over. It
-    # starts at learner.fork_learning_rate, and a fresh critic learns alone for learner.fork_critic_warmup updates
+    # checkpoint whose networks (actor, critic and contrastive heads where it has them, with their normalisers;
+    # rough_walk_v0 and flat_walk_v2 have the actor only) this run starts from, at iteration 0 with a fresh
+    # optimizer: a fork into another task or variant (the rough task from a flat walker, an ablation from the same
+    # start); its curriculum levels carry over. It starts at learner.fork_learning_rate, and a missing critic
+    # learns alone for learner.fork_critic_warmup updates (by default the run's rate and none)
     init: Path | None = None
     log_dir: Path = Path("runs")       # runs go to <log_dir>/<task>_<variant>_<time>
     save_interval: int = 20            # iterations between checkpoints
@@ -291,7 +292,7 @@ def run(a: TrainArgs):
         raise UsageError(f"--override: learner.fork_learning_rate must be > 0 and the warm-ups >= 0, got {lr}, "
                          f"{warmup}, {learner.critic_warmup}")
     has_critic = has_heads = False
-    if a.init is not None:  # a fork starts slowly (LearnerConfig.fork_learning_rate says why)
+    if a.init is not None:  # LearnerConfig.fork_learning_rate says why a fork starts at full rate by default
         saved = read_checkpoint(a.init)
         has_critic, has_heads = "critic_state_dict" in saved, "contrast_state_dict" in saved
         learner.ppo = dataclasses.replace(learner.ppo, learning_rate=learner.fork_learning_rate)
@@ -314,12 +315,12 @@ def run(a: TrainArgs):
         runner.current_learning_iteration += 1  # the checkpoint's iteration is done: continue after it
     elif a.init is not None:
         check_resume(a.init, env, learner, rank, fork=True)
-        if not has_critic and rank == 0:  # a shipped policy keeps its actor only
-            print(f"cra-train: {a.init} has no critic: the critic starts fresh and learns alone for "
-                  f"{learner.critic_warmup} iterations", file=sys.stderr)
+        if not has_critic and rank == 0:  # the shipped walkers keep their actor only
+            print(f"cra-train: {a.init} has no critic: the critic starts fresh"
+                  + (f" and learns alone for {learner.critic_warmup} iterations" if learner.critic_warmup else ""),
+                  file=sys.stderr)
         with quiet_stdout():
-            # the heads too where both have them: fresh heads against the critic's features pull a trained actor's
-            # latent somewhere new (docs/experiments.md, the fork regression)
+            # the heads too where both have them, so a fork goes on from the run it came from
             heads = has_heads and getattr(runner.alg, "heads", None) is not None
             infos = load_checkpoint(a.init, runner, load_cfg={"actor": True, "critic": has_critic, "contrast": heads})
     if "difficulty_level" in (infos or {}):

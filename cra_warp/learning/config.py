@@ -189,15 +189,16 @@ class LearnerConfig:
     # the actor with untrained advantages (CRAPPO.update)
     critic_warmup: int = 0
     # cra-train --init: the fork's starting learning rate (the adaptive schedule takes over from there) and its
-    # critic warm-up where the checkpoint has no critic. From ppo.learning_rate (1e-3) Adam's first steps move
-    # every weight of a trained actor by about the rate at once: forks of rough_walk_v0 fell on the course and
-    # their curricula went back to the start within 70 iterations; from 5e-5 with 10 warm-up updates they kept
-    # their terrain level (2-seed A/B, tools/results/ab_fork_lr.json)
-    fork_learning_rate: float = 5e-5
-    fork_critic_warmup: int = 10
+    # critic warm-up where the checkpoint has no critic. A slow start (5e-5 and 10 warm-up updates) kept a
+    # rough_walk_v0 fork's terrain level over 100 iterations where ppo.learning_rate's first steps lost it
+    # (ab_fork_lr), but every slow-start fork then unlearnt its flat walking by iteration ~300 (v_x error 0.29-1.7
+    # at 0.5 m/s, 9 runs, also on the code of that A/B) while full-rate forks kept it (0.10-0.18, 3 runs):
+    # docs/experiments.md, the fork regression. So a fork starts at the run's rate, unwarmed, unless told.
+    fork_learning_rate: float = 1e-3
+    fork_critic_warmup: int = 0
     # The warm-up's own rate, its value loss then unclipped (CRAPPO.update); None = the run's rate with PPO's clip.
     # Off: 50 warm-up iterations at 1e-3 fitted a rough_walk_v0 fork's critic (value loss 4400 -> ~1000) but the
-    # fork unlearnt walking sooner, not later (docs/experiments.md, the fork regression)
+    # fork unlearnt walking sooner, not later
     critic_warmup_learning_rate: float | None = None
     # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
     # maps come from the task (the runner reads them off the env).

@@ -282,8 +282,7 @@ def test_init_forks_a_checkpoints_networks_into_a_new_run(trained, tmp_path, cap
 
 
 def test_init_carries_the_contrastive_heads_over(trained, tmp_path):
-    """A fork of the same contrast (ours from ours) starts from the checkpoint's heads, not fresh ones: fresh heads
-    against the critic's features pulled forked actors off walking (docs/experiments.md, the fork regression)."""
+    """A fork of the same contrast (ours from ours) starts from the checkpoint's heads, not fresh ones."""
     first, _ = trained
     src = torch.load(first / "model_1.pt", weights_only=False)
     run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=1, export=False, quiet=True,
@@ -296,17 +295,17 @@ def test_init_carries_the_contrastive_heads_over(trained, tmp_path):
 
 
 def test_init_from_an_actor_only_policy_warms_its_critic_up(trained, tmp_path):
-    """A shipped policy has no critic: the fork's first updates leave its actor (normaliser included) exactly as
-    shipped and train the fresh critic."""
+    """A policy without a critic, forked with a critic warm-up (learner.fork_critic_warmup, 0 by default): the first
+    updates leave its actor (normaliser included) exactly as shipped and train the fresh critic."""
     first, _ = trained
     src = torch.load(first / "model_1.pt", weights_only=False)
     shipped = tmp_path / "actor_only.pt"
     torch.save({k: v for k, v in src.items() if k not in ("critic_state_dict", "optimizer_state_dict")}, shipped)
     run_dir, runner = train_cli.run(train_cli.TrainArgs(num_envs=4, max_iterations=2, export=False, quiet=True,
                                                         log_dir=tmp_path / "runs", sim="mujoco", init=shipped,
-                                                        save_interval=1))
+                                                        save_interval=1, override=("learner.fork_critic_warmup=3",)))
     warmup = json.loads((run_dir / "config.json").read_text())["learner"]["fork_critic_warmup"]
-    assert warmup >= 2 and runner.alg.critic_warmup_left == warmup - 2
+    assert warmup == 3 and runner.alg.critic_warmup_left == warmup - 2
     forked = torch.load(run_dir / "model_1.pt", weights_only=False)
     for name, value in src["actor_state_dict"].items():
         assert torch.equal(forked["actor_state_dict"][name], value), name
