@@ -191,9 +191,9 @@ class LearnerConfig:
     # cra-train --init: the fork's starting learning rate (the adaptive schedule takes over from there) and its
     # critic warm-up where the checkpoint has no critic. A slow start (5e-5 and 10 warm-up updates) kept a
     # rough_walk_v0 fork's terrain level over 100 iterations where ppo.learning_rate's first steps lost it
-    # (ab_fork_lr), but every slow-start fork then unlearnt its flat walking by iteration ~300 (v_x error 0.29-1.7
-    # at 0.5 m/s, 9 runs, also on the code of that A/B) while full-rate forks kept it (0.10-0.18, 3 runs):
-    # docs/experiments.md, the fork regression. So a fork starts at the run's rate, unwarmed, unless told.
+    # (ab_fork_lr), but the slow-start forks then lost their flat walking by iteration ~300 (v_x error 0.29-1.7 at
+    # 0.5 m/s, median 0.70, 9 runs, also on the code of that A/B) where full-rate forks mostly kept it (0.10-0.34,
+    # median 0.18, 5 runs): docs/experiments.md, the fork regression. So a fork starts at the run's rate, unwarmed.
     fork_learning_rate: float = 1e-3
     fork_critic_warmup: int = 0
     # The warm-up's own rate, its value loss then unclipped (CRAPPO.update); None = the run's rate with PPO's clip.
