@@ -229,15 +229,16 @@ class CRAPPO(PPO):
         # update only), so the policy that collects the data is the one being evaluated. The adaptive schedule
         # would multiply the learning rate by 1.5 every mini-batch (the KL of a held actor is rounding noise above
         # 0) and hand the actor a rate far too high when the warm-up ends: it stays put.
-        # A fresh critic is also far from returns in the hundreds: PPO's value clip (0.2 per sample and update) and
-        # a fork's slow rate would keep it from them for hundreds of iterations, so the warm-up fits it unclipped
-        # at critic_warmup_learning_rate.
+        # With critic_warmup_learning_rate the critic is fitted at that rate without PPO's value clip (0.2 per sample
+        # and update, against returns in the hundreds); without it, at the run's rate with the clip.
         actor = self._raw_actor
         actor_params = [p for p in actor.parameters() if p.requires_grad]
         schedule, self.schedule = self.schedule, "fixed"
-        clipped, self.use_clipped_value_loss = self.use_clipped_value_loss, False
+        own_rate = self.critic_warmup_learning_rate is not None
+        clipped = self.use_clipped_value_loss
+        self.use_clipped_value_loss = clipped and not own_rate
         normalization, actor.obs_normalization = actor.obs_normalization, False
-        self._set_learning_rate(self.critic_warmup_learning_rate or self.learning_rate)
+        self._set_learning_rate(self.critic_warmup_learning_rate if own_rate else self.learning_rate)
         for p in actor_params:
             p.requires_grad_(False)
         try:

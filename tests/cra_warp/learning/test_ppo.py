@@ -80,6 +80,14 @@ def test_critic_warmup_holds_the_actor(tmp_path):
     assert (resumed.alg.critic_warmup_left, forked.alg.critic_warmup_left) == (2, 3)
     with pytest.raises(ValueError, match="critic_warmup must be >= 0"):
         make_runner(critic_warmup=-1)
+    plain, env3 = make_runner(critic_warmup=1)  # no rate of its own: the run's rate, the value clip kept
+    seen.clear()
+    step3 = plain.alg.optimizer.step
+    plain.alg.optimizer.step = lambda *a, **k: (seen.append((plain.alg.optimizer.param_groups[0]["lr"],
+                                                              plain.alg.use_clipped_value_loss)), step3(*a, **k))[1]
+    collect(plain.alg, env3, STEPS)
+    plain.alg.update()
+    assert set(seen) == {(plain.alg.learning_rate, True)}
     with pytest.raises(ValueError, match="critic_warmup_learning_rate must be > 0"):
         make_runner(critic_warmup=1, critic_warmup_learning_rate=0.0)
 
