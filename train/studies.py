@@ -191,6 +191,17 @@ def schedule(runs: dict[str, Callable[[], Step | None]], parallel: int, log, pop
             waiting.append(name)
 
 
+def _run_or_print(a, runs: dict, log, popen) -> bool:
+    """--dry-run: print each run's next step and return False; else run them all ``a.parallel`` at a time."""
+    if a.dry_run:
+        for name, step in runs.items():
+            s = step()
+            log(f"{name}: " + (f"{s.what}: {' '.join(s.cmd)}" if s else "done"))
+        return False
+    schedule(runs, a.parallel, log, popen)
+    return True
+
+
 def _stale(out: Path, ckpt: Path) -> bool:
     return not out.is_file() or ckpt.stat().st_mtime > out.stat().st_mtime
 
@@ -261,12 +272,8 @@ def run_fork(a: GridArgs, log, popen) -> list[dict]:
         log(f"{m:12} recipe {recipe_of(a, m)}")
     runs = {f"{m} seed {s}": (lambda m=m, s=s: fork_step(a, m, s)) for m in methods for s in a.seeds}
     jobs = [{"method": m, "seed": s, "run_dir": _fork_paths(a, m, s)[0]} for m in methods for s in a.seeds]
-    if a.dry_run:
-        for name, step in runs.items():
-            s = step()
-            log(f"{name}: " + (f"{s.what}: {' '.join(s.cmd)}" if s else "done"))
+    if not _run_or_print(a, runs, log, popen):
         return jobs
-    schedule(runs, a.parallel, log, popen)
     evals = {(m, s): json.loads(_fork_paths(a, m, s)[1].read_text()) for m in methods for s in a.seeds}
     probes = {(m, s): json.loads(_fork_paths(a, m, s)[2].read_text()) for m in methods for s in a.seeds}
     ours = next((j for j in jobs if j["method"] == "ours"), jobs[0])
@@ -411,12 +418,8 @@ def run_walk(a: GridArgs, log, popen) -> list[dict]:
     runs = {f"{label} seed {s}": (lambda label=label, m=m, s=s: walk_step(a, label, m, s))
             for label, m in arms.items() for s in a.seeds}
     jobs = [{"method": label, "seed": s, "run_dir": _walk_paths(a, label, s)[0]} for label in arms for s in a.seeds]
-    if a.dry_run:
-        for name, step in runs.items():
-            s = step()
-            log(f"{name}: " + (f"{s.what}: {' '.join(s.cmd)}" if s else "done"))
+    if not _run_or_print(a, runs, log, popen):
         return jobs
-    schedule(runs, a.parallel, log, popen)
     records = [_walk_paths(a, label, s)[1] for label in arms for s in a.seeds]
     _draw(a, ["--walk", *map(str, records), "--out", str(a.out / "figures")], records,
           [a.out / "figures" / "walk_error.png"], log)
