@@ -242,6 +242,9 @@ def resume(a: CampaignArgs) -> int:
     return 0
 
 
+ROBOT_WAY = {"stairs_up": "(descends)", "slope_up": "(descends)", "stairs_down": "(climbs)", "slope_down": "(climbs)"}
+
+
 def status(a: CampaignArgs) -> list[dict]:
     """One record per run: its checkpoint, iteration, env steps, difficulty and mean terrain level per type."""
     from cra_warp.config_io import from_data
@@ -279,6 +282,8 @@ def status(a: CampaignArgs) -> list[dict]:
         records.append(rec)
     types = list(dict.fromkeys(t for r in records for t in r.get("terrain_level_by_type", {})))
     print(f"{'run':16} {'iter':>6} {'env steps':>10} " + " ".join(f"{t:>11}" for t in types))
+    # the tile types name the ground, not the robot's way: spawned on a pyramid's top it walks down, in a pit it climbs
+    print(f"{'':35}" + " ".join(f"{ROBOT_WAY.get(t, ''):>11}" for t in types))
     for r in records:
         by = r.get("terrain_level_by_type", {})
         print(f"{r['run']:16} {r['iteration']:6d} {r['env_steps'] / 1e6:9.2f}M "
