@@ -7,9 +7,9 @@ Levers (free dummy env, so the learner alone is timed; one fresh process per row
 mini-batches, rsl-rl's torch_compile_mode, the contrast variant, the critic CNN's strides, the update's precision
 (fp32, or bf16 autocast: --bf16). Each row: rollout inference (collect) and update seconds per iteration, the
 update's achieved GFLOP/s and its share of this CPU's matmul peak in that precision (measured here once per thread
-count and precision). End to end: cra-train on the flat task, 1 process with N envs and 2 processes (torchrun,
-gloo) with N/2 each, on Newton in fp32 and on MuJoCo C with bf16, env-steps/s and collect/update seconds per
-iteration from the runner's progress lines. Every record carries the CPU's model and precision flags.
+count and precision). End to end: cra-train on the flat task with N envs per process, 1 process pinned to one core
+and 2 processes (torchrun, gloo) on a core each, on Newton in fp32 and on MuJoCo C with bf16, env-steps/s, the
+scaling over one core and collect/update seconds per iteration from the runner's progress lines. Every record carries the CPU's model and precision flags.
 
     cra-bench-learner --profile --json tools/results/bench_learner_profile_<cpu>.json
 
@@ -119,23 +119,29 @@ def _lever_name(r: dict) -> str:
 
 
 def end_to_end(num_envs: int, iterations: int, processes: int, sim: str = "newton", bf16: bool = False) -> dict:
-    """cra-train flat for ``iterations``; the first iteration (warm-up) is left out of the means."""
+    """cra-train flat for ``iterations`` with ``num_envs`` robots per process, each process on a core of its own: one
+    process pinned to the first core this one may use (the one-core baseline), or torchrun's ranks (cra-train pins
+    each to its own core). The first iteration (warm-up) is left out of the means."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < processes:
+        raise RuntimeError(f"{processes} processes need {processes} cores, this process may use {len(allowed)}")
     with tempfile.TemporaryDirectory() as logs:
-        args = ["--num-envs", str(num_envs // processes), "--max-iterations", str(iterations), "--log-dir", logs,
+        args = ["--num-envs", str(num_envs), "--max-iterations", str(iterations), "--log-dir", logs,
                 "--no-export", "--save-interval", str(10**6), "--sim", sim, "--bf16" if bf16 else "--no-bf16"]
         if processes == 1:
             cmd = [sys.executable, "-m", "train.train", *args]
         else:
             cmd = [sys.executable, "-m", "torch.distributed.run", "--nproc-per-node", str(processes),
                    "-m", "train.train", *args]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
+        one_core = (lambda: os.sched_setaffinity(0, allowed[:1])) if processes == 1 else None
+        proc = subprocess.run(cmd, capture_output=True, text=True, preexec_fn=one_core)
     rows = [tuple(float(g) for g in m.groups()) for m in PROGRESS.finditer(proc.stdout)]
     if proc.returncode or len(rows) < 2:
         raise RuntimeError(f"cra-train x{processes} failed: {proc.stderr.strip().splitlines()[-1:]}")
     rows = rows[1:]
     mean = lambda k: sum(r[k] for r in rows) / len(rows)  # noqa: E731
-    return {"kind": "end_to_end", "cpu": cpu_info(), "processes": processes, "sim": sim, "bf16": bf16,
-            "num_envs": num_envs,
+    return {"kind": "end_to_end", "cpu": cpu_info(), "processes": processes, "cores": processes, "sim": sim,
+            "bf16": bf16, "num_envs_per_process": num_envs, "num_envs": num_envs * processes,
             "iterations": len(rows),
             "env_steps_per_s": mean(1), "collect_s": mean(2), "update_s": mean(3)}
 
@@ -392,11 +398,15 @@ def print_table(records: list[dict]) -> None:
                   f"{r['update_gflops']:8.0f} {100 * r['peak_share']:7.0f}")
     e2e = [r for r in records if r["kind"] == "end_to_end"]
     if e2e:
-        print(f"\ncra-train end to end, flat task, N={e2e[0]['num_envs']} in total")
-        print(f"{'sim':>7} {'update':>6} {'processes':>9} {'env-steps/s':>12} {'collect s':>10} {'update s':>9}")
+        print(f"\ncra-train end to end, flat task, N={e2e[0]['num_envs_per_process']} per process, one core each")
+        print(f"{'sim':>7} {'update':>6} {'cores':>5} {'env-steps/s':>12} {'x one core':>10} {'collect s':>10} "
+              f"{'update s':>9}")
+        one = {(r["sim"], r["bf16"]): r["env_steps_per_s"] for r in e2e if r["processes"] == 1}
         for r in e2e:
-            print(f"{r['sim']:>7} {'bf16' if r['bf16'] else 'fp32':>6} {r['processes']:9d} {r['env_steps_per_s']:12.0f} "
-                  f"{r['collect_s']:10.2f} {r['update_s']:9.2f}")
+            base = one.get((r["sim"], r["bf16"]))
+            print(f"{r['sim']:>7} {'bf16' if r['bf16'] else 'fp32':>6} {r['processes']:5d} {r['env_steps_per_s']:12.0f} "
+                  f"{r['env_steps_per_s'] / base if base else float('nan'):10.2f} {r['collect_s']:10.2f} "
+                  f"{r['update_s']:9.2f}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -405,13 +415,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--iterations", type=int, default=3, help="end-to-end training iterations (first is warm-up)")
     p.add_argument("--no-levers", action="store_true")
     p.add_argument("--no-end-to-end", action="store_true")
+    p.add_argument("--sims", nargs="+", default=["newton", "mujoco"], choices=["newton", "mujoco"],
+                   help="end to end: the backends (Newton in fp32, MuJoCo C with bf16 where the CPU has it)")
     p.add_argument("--json", type=Path, help="write the records to this file")
     p.add_argument("--profile", action="store_true",
                    help="profile cra-train's iteration on the real task (MuJoCo, one thread) instead: --terrain x "
                         "--sizes, the time of every part (physics, task, inference, update parts)")
     p.add_argument("--terrain", nargs="+", default=["flat", "rough"], choices=["flat", "rough"])
     p.add_argument("--sizes", type=int, nargs="+", default=[256, 1024], help="--profile: N per run")
-    p.add_argument("--no-bf16", action="store_true", help="--profile: fp32 update even where bf16 is native")
+    p.add_argument("--no-bf16", action="store_true", help="--profile and MuJoCo end to end: fp32 update even where bf16 is native")
     p.add_argument("--torch-profile", action="store_true", help="--profile: add torch.profiler's top ops")
     p.add_argument("--learner", default="{}", help="--profile: learner config overrides as JSON {dotted: value}")
     p.add_argument("--worker", help=argparse.SUPPRESS)
@@ -438,7 +450,9 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("OMP_NUM_THREADS", "1")  # torchrun's children: cra-train sets its own thread count
     records = [] if a.no_levers else levers(a.num_envs)
     if not a.no_end_to_end:
-        for sim, bf16 in (("newton", False), ("mujoco", True)):
+        for sim, bf16 in (("newton", False), ("mujoco", not a.no_bf16)):
+            if sim not in a.sims:
+                continue
             for procs in (1, 2):
                 records.append(end_to_end(a.num_envs, a.iterations, procs, sim, bf16))
                 r = records[-1]
