@@ -53,3 +53,25 @@ def test_learner_bench_reads_the_progress_line(capsys):
                                "reward": 3.0, "episode_s": 1.0}, 0, 10)
     m = PROGRESS.search(capsys.readouterr().out)
     assert m and m.groups() == ("5", "948", "12.8", "13.2")
+
+
+def test_end_to_end_table_scales_against_one_core(capsys):
+    from tools.bench_learner import print_table
+
+    row = dict(kind="end_to_end", sim="mujoco", bf16=True, num_envs_per_process=256, collect_s=0.8, update_s=1.6)
+    print_table([{**row, "processes": 1, "env_steps_per_s": 2600.0},
+                 {**row, "processes": 2, "env_steps_per_s": 4732.0}])
+    rows = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip().startswith("mujoco")]
+    assert [r[2:5] for r in rows] == [["1", "2600", "1.00"], ["2", "4732", "1.82"]]
+
+
+def test_end_to_end_needs_a_core_per_process(monkeypatch):
+    import os
+
+    import pytest
+
+    from tools.bench_learner import end_to_end
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+    with pytest.raises(RuntimeError, match="2 processes need 2 cores"):
+        end_to_end(256, 2, processes=2, sim="mujoco")
