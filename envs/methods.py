@@ -1,9 +1,13 @@
 """The method registry (paper IV-A) and the one place a method, a task and a recipe become the env and learner configs.
 
-A method is a record of three choices:
+A method is a record of three choices and, for a baseline, the learner settings its paper adds:
 - clock_mode: the gait clock the task runs (LocoConfig.variant: "adaptive", "fixed_cycle", "clock_free");
 - contrast_pairing: what InfoNCE pairs (ContrastConfig.variant: "same_step", "sequential" or "none");
-- actor_kind: the actor's representation (ActorConfig.kind: "gru", or a baseline's estimator).
+- actor_kind: the actor's representation (ActorConfig.kind: "gru", or a baseline's estimator);
+- learner: LearnerConfig settings (dotted paths) applied before the recipe's and the caller's overrides.
+Each baseline comes twice: on our adaptive clock (dreamwaq, dwl: the actors alone differ from ours) and as close to
+its paper as this task allows (dreamwaq_clock_free: no clock, as DreamWaQ has none, and its AdaBoot;
+dwl_fixed_cycle: a clock of fixed period that the gait actions do not move, as DWL's). docs/paper.md says more.
 The stored field names stay "variant" (every checkpoint's config.json uses them); new code says clock_mode and
 contrast_pairing. cra-train's --method (alias --variant, the name stored runs use) picks a row.
 """
@@ -14,7 +18,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Literal, get_args
 
-Method = Literal["ours", "sequential", "no_contrast", "fixed_cycle", "clock_free", "dreamwaq", "dwl"]
+Method = Literal["ours", "sequential", "no_contrast", "fixed_cycle", "clock_free", "dreamwaq", "dwl",
+                 "dreamwaq_clock_free", "dwl_fixed_cycle"]
 Task = Literal["flat", "rough"]
 TASKS: tuple[str, ...] = get_args(Task)
 
@@ -24,6 +29,7 @@ class MethodSpec:
     clock_mode: str          # LocoConfig.variant
     contrast_pairing: str    # ContrastConfig.variant
     actor_kind: str          # ActorConfig.kind
+    learner: tuple[tuple[str, object], ...] = ()   # (LearnerConfig dotted path, value): what the method turns on
 
     @property
     def uses_clock(self) -> bool:
@@ -39,6 +45,9 @@ METHODS: dict[str, MethodSpec] = {
     # the baselines keep our clock, rewards and critic; their actors are cra_warp/learning/baselines.py's
     "dreamwaq": MethodSpec("adaptive", "none", "dreamwaq"),
     "dwl": MethodSpec("adaptive", "none", "dwl"),
+    # the baselines' own pairings: DreamWaQ has no clock and trains with AdaBoot; DWL's clock has a fixed period
+    "dreamwaq_clock_free": MethodSpec("clock_free", "none", "dreamwaq", (("dreamwaq.adaboot", True),)),
+    "dwl_fixed_cycle": MethodSpec("fixed_cycle", "none", "dwl"),
 }
 assert tuple(METHODS) == get_args(Method)
 
@@ -47,8 +56,9 @@ def build_configs(method: str, task: str, *, recipe: str | None = None, override
                   num_envs: int = 128, device: str = "cpu", sim: str = "newton", seed: int = 0, threads: int = 0,
                   curriculum: bool = True, contrast_weight: float = 0.1, contrast_tau: float = 0.1,
                   epochs: int = 2, mini_batches: int = 4, mixed_precision: bool = False, save_interval: int = 20):
-    """(LocoConfig, LearnerConfig, recipe record) of a run: the method's row and the arguments, then the recipe's
-    overrides (minus what the method cannot use), then ``overrides`` (dotted paths; learner ones under "learner.").
+    """(LocoConfig, LearnerConfig, recipe record) of a run: the method's row (its learner settings included) and the
+    arguments, then the recipe's overrides (minus what the method cannot use), then ``overrides`` (dotted paths;
+    learner ones under "learner.").
     The learner's privileged_slices need the env's layout: set them with ``bind_learner`` once the env is built.
     ValueError (one line, naming the override) for an override that does not fit."""
     from cra_warp.config_io import with_overrides
@@ -83,6 +93,8 @@ def build_configs(method: str, task: str, *, recipe: str | None = None, override
     learner.ppo = dataclasses.replace(learner.ppo, num_learning_epochs=epochs, num_mini_batches=mini_batches,
                                       use_mixed_precision=mixed_precision)
     learner.actor = dataclasses.replace(learner.actor, kind=spec.actor_kind)
+    if spec.learner:
+        learner = with_overrides(learner, dict(spec.learner))
     if learner_over:
         try:
             learner = with_overrides(learner, learner_over)

@@ -19,10 +19,11 @@ re-running the same command, on this machine or, after cra-campaign save / resto
                                     "recipes" says which recipe each method trained with
 
 Every method trains with one recipe (--recipe, envs/recipes.py; walk unless told). A method that cannot use part
-of it runs without that part, and the plan and the table say so: clock_free has no clock, so it trains without the
-recipe's gait.* settings (under walk: no clock feedforward). Its fair pair, ours_as_clock_free, is ours with the
-same keys left out; the grid trains and evaluates it beside the methods (--no-fair-pairs: not) wherever those keys
-differ from the defaults (under walk; not under paper, where ours is that pair already).
+of it runs without that part, and the plan and the table say so: clock_free and dreamwaq_clock_free have no clock,
+so they train without the recipe's gait.* settings (under walk: no clock feedforward). Their fair pair,
+ours_as_clock_free, is ours with the same keys left out; the grid trains and evaluates it beside the methods
+(--no-fair-pairs: not) wherever those keys differ from the defaults (under walk; not under paper, where ours is
+that pair already).
 
 Resumable: a run whose final checkpoint exists is not trained again, an unfinished one resumes from its newest
 checkpoint, and a run's evaluation is redone only when its final checkpoint is newer than its JSON. A run is
@@ -46,10 +47,10 @@ from cra_warp.cli import UsageError, parse_args
 from envs.methods import METHODS, Method
 
 # The two budgets. gpu: the paper's setting (4096 robots, 10k iterations, rough, every robot of the protocol).
-# cpu: what a 2-core machine runs within one sitting: 21 runs x 60 iterations of 128 robots on the MuJoCo backend, two
-# at a time, each evaluated with 4 robots per level (a run of ours: ~5.5 s per iteration on a Zen 1 core). It shows the
-# pipeline, not an ordering: walking took ~20M env steps on flat ground, a run here is 0.18M (--iterations and
-# --num-envs give longer runs).
+# cpu: what a 2-core machine runs within one sitting: 30 runs (the 9 methods and ours_as_clock_free x 3 seeds) x 60
+# iterations of 128 robots on the MuJoCo backend, two at a time, each evaluated with 4 robots per level (a run of
+# ours: ~5.5 s per iteration on a Zen 1 core). It shows the pipeline, not an ordering: walking took ~20M env steps on
+# flat ground, a run here is 0.18M (--iterations and --num-envs give longer runs).
 SCALES = {
     "gpu": {"num_envs": 4096, "iterations": 10000, "sim": "newton", "device": "cuda:0", "parallel": 1,
             "eval": []},
@@ -129,11 +130,17 @@ def unusable(a: GridArgs, method: str) -> dict[str, object]:
 
 
 def labels(a: GridArgs) -> dict[str, str]:
-    """Every run label of the grid -> the method it trains: the methods, and each method's fair pair."""
+    """Every run label of the grid -> the method it trains: the methods, and their fair pairs: one per clock mode
+    (clock_free and dreamwaq_clock_free leave out the same keys), named by it: ours_as_clock_free."""
     out = {m: m for m in a.methods}
     if a.fair_pairs:
-        out |= {PAIR + m: "ours" for m in a.methods if unusable(a, m)}
+        out |= {PAIR + METHODS[m].clock_mode: "ours" for m in a.methods if unusable(a, m)}
     return out
+
+
+def paired(a: GridArgs, label: str) -> list[str]:
+    """The methods of the grid a fair pair's label stands beside (those of its clock mode that need one)."""
+    return [m for m in a.methods if PAIR + METHODS[m].clock_mode == label and unusable(a, m)]
 
 
 def recipe_of(a: GridArgs, label: str) -> str:
@@ -142,8 +149,8 @@ def recipe_of(a: GridArgs, label: str) -> str:
     from envs.recipes import describe
 
     if label.startswith(PAIR):
-        method = label[len(PAIR):]
-        return f"{a.recipe} without {', '.join(unusable(a, method))} (the fair pair of {method})"
+        methods = paired(a, label)
+        return f"{a.recipe} without {', '.join(unusable(a, methods[0]))} (the fair pair of {', '.join(methods)})"
     return describe(a.recipe, uses_clock=METHODS[label].uses_clock)
 
 
@@ -153,7 +160,7 @@ def plan(a: GridArgs) -> list[dict]:
     total = a.iterations or s["iterations"]
     jobs = []
     for m, method in labels(a).items():
-        left_out = unusable(a, m[len(PAIR):]) if m.startswith(PAIR) else {}
+        left_out = unusable(a, paired(a, m)[0]) if m.startswith(PAIR) else {}
         for seed in a.seeds or DEFAULT_SEEDS:
             run_dir = a.out / "train" / f"{m}-s{seed}"
             newest = _newest(run_dir)

@@ -1,7 +1,7 @@
 """cra-grid --study fork | walk: two comparisons of the paper's methods that fit a CPU (issue 37).
 
     cra-grid --study fork --out fork/   # ours sequential no_contrast fixed_cycle x seeds 1 2 3, 300 iterations each
-    cra-grid --study walk --out walk/   # the 7 methods and ours_as_clock_free x seeds 1 2, <= 30M env steps each
+    cra-grid --study walk --out walk/   # every method and ours_as_clock_free x seeds 1 2, <= 30M env steps each
 
 Both run on --scale's simulator and device (cpu: MuJoCo on the CPU, two processes at a time, one core each) with
 256 robots per run (--num-envs) and one recipe for every run (--recipe, walk unless told; a method that cannot use
@@ -13,8 +13,9 @@ fork: rough fine-tuning from one walker. Every method whose actor has our archit
     cra-train --task rough --method M --recipe R --init WALKER --seed S --num-envs 256 --sim mujoco
               --max-iterations 300 --save-interval 20 --log-dir <out>/train/M-sS --no-export --quiet
 
-clock_free (no clock inputs or gait actions: its actor's observation and outputs are not the walker's), dreamwaq
-and dwl (their actors are their papers' networks, not our GRU) cannot fork: the plan says so and leaves them out.
+clock_free (no clock inputs or gait actions: its actor's observation and outputs are not the walker's) and the
+baselines (dreamwaq, dwl and their papers' pairings: their actors are their papers' networks, not our GRU) cannot
+fork: the plan says so and leaves them out.
 Each finished run gets cra-eval --protocol paper --robots-per-level 10 --ablation-robots 50 (the 0.15 m/s stairs
 and slope ascent with 50 robots per level, the speed sweep 0.15-1.0 m/s with 10; --eval-args replaces these) and
 cra-probe (its defaults; --probe-args adds to them).
@@ -76,7 +77,7 @@ from typing import Callable
 from cra_warp.atomic_json import write_json, write_text
 from cra_warp.cli import UsageError
 from envs.methods import METHODS
-from train.grid import PAIR, SCALES, GridArgs, _newest, labels, recipe_of, unusable
+from train.grid import PAIR, SCALES, GridArgs, _newest, labels, paired, recipe_of, unusable
 
 FORK = {"iterations": 300, "num_envs": 256, "seeds": (1, 2, 3),
         "eval": ["--robots-per-level", "10", "--ablation-robots", "50"]}
@@ -398,7 +399,7 @@ def walk_step(a: GridArgs, label: str, method: str, seed: int) -> Step | None:
     if what != "train":
         return None
     cmd = _train_cmd(a, "flat", method, seed, run_dir, it - (newest[0] if newest else -1))
-    left_out = unusable(a, label[len(PAIR):]) if label.startswith(PAIR) else {}
+    left_out = unusable(a, paired(a, label)[0]) if label.startswith(PAIR) else {}
     if left_out:
         cmd += ["--override", *(f"{k}={json.dumps(v)}" for k, v in left_out.items())]
     if newest:

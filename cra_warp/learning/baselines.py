@@ -5,6 +5,7 @@ actor's representation only.
     DreamWaQ (Nahrendra et al., ICRA 2023)  window of the last H observations -> encoder -> v_hat (3), z ~ N(mu, s);
         decoder([v_hat, z]) -> o_{t+1}; policy MLP on [o_t, v_hat, mu]. Loss: MSE(v_hat, v) + MSE(o_hat, o_{t+1})
         + beta KL(N(mu, s) || N(0, 1)); the estimates enter the policy detached (PPO does not train the estimator).
+        With AdaBoot (adaboot.py) the policy reads the true v instead of v_hat where the robot's coin says so.
     DWL (Gu et al., RSS 2024)  the noisy observation -> GRU encoder (our RNN_a) -> latent -> policy MLP; a decoder
         reconstructs the noise-free privileged state s_t from the latent. Loss: MSE(decoder(m_a), s_t); PPO and the
         reconstruction both train the encoder.
@@ -26,6 +27,7 @@ from rsl_rl.models import MLPModel, RNNModel
 from rsl_rl.modules import MLP, EmpiricalNormalization, HiddenState
 from rsl_rl.utils import unpad_trajectories
 
+from cra_warp.learning.adaboot import BOOTSTRAP_GROUP
 from cra_warp.learning.contrastive import episode_ids
 
 
@@ -94,7 +96,8 @@ class DreamWaQActor(MLPModel):
     The window is this model's recurrent state (HistoryMemory), so rollouts, recurrent mini-batches, checkpoints and
     the exported graphs (h_in / h_out) treat it as they treat our GRU actor.
     ``targets``: slices of the privileged group: "velocity" (the base velocity, as scaled there) and "observation"
-    (the noise-free actor observation).
+    (the noise-free actor observation). ``adaboot``: where the observation has the "bootstrap" group (training),
+    its 0 rows feed the policy that true velocity instead of v_hat; without the group, v_hat (evaluation, export).
     """
 
     is_recurrent: bool = True
@@ -103,7 +106,7 @@ class DreamWaQActor(MLPModel):
                  hidden_dims=(512, 256, 128), activation: str = "elu", obs_normalization: bool = True,
                  distribution_cfg: dict | None = None, history: int = 5, latent_dim: int = 16,
                  encoder_dims=(128, 64), decoder_dims=(64, 128), beta: float = 1.0,
-                 targets: dict | None = None) -> None:
+                 targets: dict | None = None, adaboot: bool = False) -> None:
         self.z_dim = latent_dim
         self._obs_width = sum(obs[g].shape[-1] for g in obs_groups[obs_set])
         super().__init__(obs, obs_groups, obs_set, output_dim, hidden_dims, activation, obs_normalization,
@@ -113,6 +116,9 @@ class DreamWaQActor(MLPModel):
         self.decoder = MLP(3 + latent_dim, self.obs_dim, list(decoder_dims), activation)
         self.beta = beta
         self.targets = {k: tuple(v) for k, v in (targets or {}).items()}
+        if adaboot and "velocity" not in self.targets:
+            raise ValueError("DreamWaQActor with AdaBoot needs targets['velocity'] (the true velocity it may feed)")
+        self.adaboot = adaboot
         self.estimate: tuple[torch.Tensor, torch.Tensor, torch.Tensor] | None = None  # v_hat, mu, log var
 
     def _get_latent_dim(self) -> int:
@@ -126,7 +132,14 @@ class DreamWaQActor(MLPModel):
             window = window.squeeze(0)
         v, mu, logvar = self.encoder(window).split([3, self.z_dim, self.z_dim], dim=-1)
         self.estimate = (v, mu, logvar)
-        return torch.cat([window[..., -self.obs_dim:], v.detach(), mu.detach()], dim=-1)
+        v_fed = v.detach()
+        if self.adaboot and BOOTSTRAP_GROUP in obs.keys():
+            a, b = self.targets["velocity"]
+            truth, coin = obs["privileged"][..., a:b], obs[BOOTSTRAP_GROUP]
+            if masks is not None:  # the update's padded trajectories, as the window above
+                truth, coin = unpad_trajectories(truth, masks), unpad_trajectories(coin, masks)
+            v_fed = torch.where(coin > 0.5, v_fed, truth.to(v_fed.dtype))
+        return torch.cat([window[..., -self.obs_dim:], v_fed, mu.detach()], dim=-1)
 
     def representation_loss(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
         for k in ("velocity", "observation"):

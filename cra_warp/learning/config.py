@@ -58,10 +58,15 @@ class DreamWaQConfig:
     # re-implementation found z collapsed with beta 1 on a summed KL and alive with 0.35 on averaged terms.
     beta: float = 0.35
     # The estimator's loss enters PPO's loss with this weight (the paper trains CENet beside the policy, lr 1e-3,
-    # and does not say how: one optimizer, the KL-adapted lr, is our choice). Its outputs enter the policy detached.
-    # Not built: AdaBoot (feeding ground truth instead of the estimates with probability 1 - tanh(CV(returns))):
-    # replaying that choice in the update needs a per-env flag rsl-rl's storage has no slot for.
+    # and does not say how: one optimizer, the KL-adapted lr and rsl-rl's gradient clip, is our choice). Its outputs
+    # enter the policy detached.
     weight: float = 1.0
+    # AdaBoot (the paper's adaptive bootstrapping; cra_warp/learning/adaboot.py): each learning iteration the policy
+    # is fed the estimator's velocity with probability p_boot = 1 - tanh(CV(R)), CV the coefficient of variation of
+    # the robots' episodic returns, and the true (privileged) velocity otherwise: ground truth while the returns
+    # still spread widely, the estimates once they agree. On for dreamwaq_clock_free; off for dreamwaq, whose stored
+    # runs trained without it (an override turns it on). Export and deploy always feed the estimates.
+    adaboot: bool = False
 
 
 @dataclass
@@ -253,7 +258,7 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
         d = cfg.dreamwaq
         actor.update(hidden_dims=list(d.hidden_dims), history=d.history, latent_dim=d.latent_dim,
                      encoder_dims=list(d.encoder_dims), decoder_dims=list(d.decoder_dims), beta=d.beta,
-                     targets={k: list(v) for k, v in cfg.privileged_slices.items()})
+                     targets={k: list(v) for k, v in cfg.privileged_slices.items()}, adaboot=d.adaboot)
         representation_weight = d.weight
     else:
         d = cfg.dwl

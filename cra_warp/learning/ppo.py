@@ -12,7 +12,8 @@ loudly instead of silently training without the term.
 Differences from plain PPO: the two contrastive encoder heads are an extra optimizer param group (same lr, adapted
 by the same KL schedule); their gradients are not norm-clipped (rsl-rl clips actor and critic only; Adam is
 insensitive to the gradient scale), and they are saved/loaded as ``contrast_state_dict`` in the checkpoint. A
-baseline's estimator or decoder is part of its actor: optimised, clipped and saved with it.
+baseline's estimator or decoder is part of its actor: optimised, clipped and saved with it. DreamWaQ's AdaBoot
+(adaboot.py) adds its coins to the observations before each act, so the storage, built with that group, replays them.
 
 Where the time goes on a CPU (issue 34): with ``batched_values`` (the default) the critic does not run inside the
 rollout loop. ``act`` steps the actor only; ``compute_returns`` runs the critic once over the whole [T, N] rollout
@@ -35,6 +36,7 @@ import torch
 from rsl_rl.algorithms import PPO
 from rsl_rl.utils import reduce_gradients_in_buckets
 
+from cra_warp.learning.adaboot import BOOTSTRAP_GROUP, AdaBoot, with_bootstrap
 from cra_warp.learning.config import ContrastConfig
 from cra_warp.learning.contrastive import ContrastiveHeads, contrast_pairs, episode_ids, info_nce, subsample
 from cra_warp.learning.models import CRAActor, CRACritic
@@ -150,6 +152,16 @@ class CRAPPO(PPO):
             if self.symmetry is not None:
                 raise ValueError("the auxiliary losses use rsl-rl's symmetry slot; symmetry_cfg must be None")
             self.symmetry = _AuxLossHook(terms)
+        self.adaboot = AdaBoot(storage.num_envs, self.device) if getattr(actor, "adaboot", False) else None
+        if self.adaboot is not None and BOOTSTRAP_GROUP not in storage.observations.keys():
+            raise ValueError("AdaBoot needs the storage built with its observation group (CRAPPO.construct_algorithm)")
+
+    @staticmethod
+    def construct_algorithm(obs, env, cfg: dict, device: str) -> "CRAPPO":
+        """rsl-rl's construction; with AdaBoot its storage also keeps the coins (adaboot.py) beside each step."""
+        if cfg["actor"].get("adaboot"):
+            obs = with_bootstrap(obs, torch.zeros(obs.batch_size[0], 1, device=obs.device))
+        return PPO.construct_algorithm(obs, env, cfg, device)
 
     def _mirror_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
         starts = None
@@ -182,6 +194,8 @@ class CRAPPO(PPO):
 
     # ---------------------------------------------------------------- collection: the actor only, values after
     def act(self, obs):
+        if self.adaboot is not None:  # the policy and the storage see this rollout's coins
+            obs = self.adaboot.tag(obs)
         if not self.batched_values:
             return super().act(obs)
         t = self.transition
@@ -194,6 +208,8 @@ class CRAPPO(PPO):
         return t.actions
 
     def process_env_step(self, obs, rewards, dones, extras) -> None:
+        if self.adaboot is not None:
+            self.adaboot.record(rewards, dones)
         if not self.batched_values:
             return super().process_env_step(obs, rewards, dones, extras)
         t = self.transition
@@ -222,8 +238,12 @@ class CRAPPO(PPO):
         super().compute_returns(obs)  # last values from that state (restored after), then GAE
 
     def update(self) -> dict[str, float]:
-        if self.critic_warmup_left <= 0:
-            return self._update()
+        loss_dict = self._update() if self.critic_warmup_left <= 0 else self._warmup_update()
+        if self.adaboot is not None:  # the next rollout's coins, from the returns so far
+            loss_dict.update(self.adaboot.next_rollout())
+        return loss_dict
+
+    def _warmup_update(self) -> dict[str, float]:
         # Critic warm-up: the actor's parameters take no gradient (Adam skips them, rsl-rl's clipping and gradient
         # reduction ignore missing gradients) and its observation normaliser no update (rsl-rl's flag gates the
         # update only), so the policy that collects the data is the one being evaluated. The adaptive schedule
@@ -376,12 +396,16 @@ class CRAPPO(PPO):
             saved["contrast_state_dict"] = self.heads.state_dict()
         if self.critic_warmup_left > 0:
             saved["critic_warmup_left"] = self.critic_warmup_left
+        if self.adaboot is not None:
+            saved["adaboot_state"] = self.adaboot.state_dict()
         return saved
 
     def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
         load_iteration = super().load(loaded_dict, load_cfg, strict)
         if load_cfg is None or load_cfg.get("optimizer"):  # a resume (not a fork) continues a warm-up it stopped in
             self.critic_warmup_left = loaded_dict.get("critic_warmup_left", 0)
+            if self.adaboot is not None and "adaboot_state" in loaded_dict:  # and AdaBoot at its probability
+                self.adaboot.load_state_dict(loaded_dict["adaboot_state"])
         if self.heads is not None and (load_cfg is None or load_cfg.get("contrast", load_cfg.get("optimizer"))):
             if "contrast_state_dict" in loaded_dict:
                 self.heads.load_state_dict(loaded_dict["contrast_state_dict"], strict=strict)

@@ -28,3 +28,30 @@ def test_overrides_come_after_the_recipe_and_reach_the_learner():
         build_configs("ours", "flat", overrides={"gait.no_such": 1})
     with pytest.raises(ValueError, match="--override: learner"):
         build_configs("ours", "flat", overrides={"learner.ppo.no_such": 1})
+
+
+def test_the_baselines_paper_pairings_build_their_papers_clock_and_actor():
+    """dreamwaq_clock_free: DreamWaQ's actor with AdaBoot and no clock, so the walk recipe's clock keys are left out
+    (as clock_free's); dwl_fixed_cycle: DWL's actor on a clock of fixed period, the recipe whole. The same-clock
+    versions keep our adaptive clock and plain dreamwaq keeps AdaBoot off (its stored runs trained without it)."""
+    env_cfg, learner, recipe = build_configs("dreamwaq_clock_free", "flat", recipe="walk")
+    assert (env_cfg.variant, env_cfg.uses_clock, learner.actor.kind) == ("clock_free", False, "dreamwaq")
+    assert learner.dreamwaq.adaboot and learner.contrast.variant == "none"
+    _, _, clock_free = build_configs("clock_free", "flat", recipe="walk")
+    assert recipe["not_used"] == clock_free["not_used"] and "gait.swing_feedforward" in recipe["not_used"]
+    assert not any(k.startswith("gait.") for k in recipe["overrides"])
+    assert env_cfg.gait.swing_feedforward == 0.0 and env_cfg.gait.alpha == 0.5   # the defaults, not walk's
+
+    env_cfg, learner, recipe = build_configs("dwl_fixed_cycle", "flat", recipe="walk")
+    assert (env_cfg.variant, env_cfg.uses_clock, learner.actor.kind) == ("fixed_cycle", True, "dwl")
+    assert recipe["not_used"] == {} and env_cfg.gait.swing_feedforward == 0.25
+    assert not learner.dreamwaq.adaboot
+
+    for same_clock in ("dreamwaq", "dwl"):
+        env_cfg, learner, _ = build_configs(same_clock, "flat")
+        assert env_cfg.variant == "adaptive" and not learner.dreamwaq.adaboot
+    # the method's learner settings come before the caller's overrides: AdaBoot can be turned off, or on for dreamwaq
+    _, learner, _ = build_configs("dreamwaq_clock_free", "flat", overrides={"learner.dreamwaq.adaboot": False})
+    assert not learner.dreamwaq.adaboot
+    _, learner, _ = build_configs("dreamwaq", "flat", overrides={"learner.dreamwaq.adaboot": True})
+    assert learner.dreamwaq.adaboot

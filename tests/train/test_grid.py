@@ -70,6 +70,21 @@ def test_a_method_that_cannot_use_the_recipe_gets_its_fair_pair(tmp_path):
     assert json.loads(path.read_text()) == [{"method": "ours_as_clock_free", "success_rate": 0.5}]
 
 
+def test_the_clock_free_methods_share_one_fair_pair(tmp_path):
+    """clock_free and dreamwaq_clock_free leave out the same recipe keys: one ours_as_clock_free stands beside both
+    (not a second, identical run), and beside dreamwaq_clock_free alone; dwl_fixed_cycle has a clock and needs none."""
+    a = grid.GridArgs(methods=("clock_free", "dreamwaq_clock_free", "dwl_fixed_cycle"), seeds=(1,), out=tmp_path)
+    assert grid.labels(a) == {"clock_free": "clock_free", "dreamwaq_clock_free": "dreamwaq_clock_free",
+                              "dwl_fixed_cycle": "dwl_fixed_cycle", "ours_as_clock_free": "ours"}
+    assert "fair pair of clock_free, dreamwaq_clock_free" in grid.recipe_of(a, "ours_as_clock_free")
+    alone = grid.GridArgs(methods=("dreamwaq_clock_free",), seeds=(1,), out=tmp_path)
+    jobs = {j["method"]: j["cmd"] for j in grid.plan(alone)}
+    assert set(jobs) == {"dreamwaq_clock_free", "ours_as_clock_free"}
+    pair = jobs["ours_as_clock_free"]
+    assert pair[pair.index("--method") + 1] == "ours" and "gait.swing_feedforward=0.0" in pair
+    assert jobs["dreamwaq_clock_free"][jobs["dreamwaq_clock_free"].index("--method") + 1] == "dreamwaq_clock_free"
+
+
 def test_grid_rejects_bad_values(capsys, tmp_path):
     one_line_error(capsys, grid.main(["--recipe", "magic", "--out", str(tmp_path)]), "--recipe")
     one_line_error(capsys, grid.main(["--scale", "tpu"]), "--scale")

@@ -31,7 +31,7 @@ def test_fork_plan_starts_every_arm_from_the_walker_with_one_budget(tmp_path):
     a = grid.GridArgs(study="fork", seeds=(1, 2), out=tmp_path, iterations=7, dry_run=True)
     grid.run(a, log=lines.append)
     left = {line.split()[0]: line for line in lines if "left out: cannot fork" in line}
-    assert set(left) == {"clock_free", "dreamwaq", "dwl"}, lines
+    assert set(left) == {"clock_free", "dreamwaq", "dwl", "dreamwaq_clock_free", "dwl_fixed_cycle"}, lines
     cmds = {line.split(":")[0]: line.split("training: ")[1].split() for line in lines if "training: " in line}
     assert set(cmds) == {f"{m} seed {s}" for m in ("ours", "sequential", "no_contrast", "fixed_cycle")
                          for s in (1, 2)}

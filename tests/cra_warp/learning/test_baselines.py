@@ -163,13 +163,15 @@ def test_baseline_export_parity(tmp_path, kind):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("variant", ["dreamwaq", "dwl"])
+@pytest.mark.parametrize("variant", ["dreamwaq", "dwl", "dreamwaq_clock_free", "dwl_fixed_cycle"])
 def test_baseline_trains_exports_and_runs_from_its_export(tmp_path, variant, capsys):
-    """cra-train --variant <baseline>: 2 iterations on the task, its export driven by the numpy deploy module from
-    the JSON's inputs alone, and cra-play rebuilding the run from its checkpoint."""
+    """cra-train --variant <baseline>: 2 iterations on the task (the papers' pairings on their clocks, DreamWaQ's
+    with AdaBoot), its export driven by the numpy deploy module from the JSON's inputs alone, and cra-play
+    rebuilding the run from its checkpoint."""
     import numpy as np
 
     from cra_warp.deploy import DeployPolicy
+    from envs.methods import METHODS
     from train import play as play_cli
     from train import train as train_cli
 
@@ -178,10 +180,12 @@ def test_baseline_trains_exports_and_runs_from_its_export(tmp_path, variant, cap
     assert train_cli.main(args) == 0
     run = next(tmp_path.iterdir())
     saved = torch.load(run / "model_1.pt", weights_only=False)
-    assert saved["infos"]["config"]["learner"]["actor"]["kind"] == variant
+    method = METHODS[variant]
+    assert saved["infos"]["config"]["learner"]["actor"]["kind"] == method.actor_kind
+    assert ("adaboot_state" in saved) == (variant == "dreamwaq_clock_free")
     policy = DeployPolicy(run / "exported")
     spec = policy.spec
-    assert spec["variant"] == "adaptive" and spec["network"]["recurrent"]
+    assert spec["variant"] == method.clock_mode and spec["network"]["recurrent"]
     J = policy.num_joints
     jit = torch.jit.load(str(run / "exported" / "policy.pt"))
     jit.reset()
