@@ -262,7 +262,9 @@ def status(a: CampaignArgs) -> list[dict]:
                 ckpt = max(run.rglob(f"model_{a.iteration}.pt"), key=lambda p: p.stat().st_mtime, default=None)
             if ckpt is None:
                 raise UsageError(f"{run}: no model_{a.iteration if a.iteration is not None else '<it>'}.pt under it")
-            found[run.name] = ckpt
+            # two runs of one name (s1 of two campaigns) are told apart by their parent folder
+            clash = sum(r.name == run.name for r in a.runs) > 1
+            found[f"{run.parent.name}/{run.name}" if clash else run.name] = ckpt
     else:
         folder, manifest = _manifest(a)
         found = {k: folder / r["checkpoint"] for k, r in manifest["runs"].items()}
