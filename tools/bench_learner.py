@@ -9,7 +9,8 @@ mini-batches, rsl-rl's torch_compile_mode, the contrast variant, the critic CNN'
 update's achieved GFLOP/s and its share of this CPU's matmul peak in that precision (measured here once per thread
 count and precision). End to end: cra-train on the flat task with N envs per process, 1 process pinned to one core
 and 2 processes (torchrun, gloo) on a core each, on Newton in fp32 and on MuJoCo C with bf16, env-steps/s, the
-scaling over one core and collect/update seconds per iteration from the runner's progress lines. Every record carries the CPU's model and precision flags.
+scaling over one core and collect/update seconds per iteration from the runner's progress lines. Every record
+carries the CPU's model and precision flags.
 
     cra-bench-learner --profile --json tools/results/bench_learner_profile_<cpu>.json
 
@@ -423,7 +424,8 @@ def main(argv: list[str] | None = None) -> int:
                         "--sizes, the time of every part (physics, task, inference, update parts)")
     p.add_argument("--terrain", nargs="+", default=["flat", "rough"], choices=["flat", "rough"])
     p.add_argument("--sizes", type=int, nargs="+", default=[256, 1024], help="--profile: N per run")
-    p.add_argument("--no-bf16", action="store_true", help="--profile and MuJoCo end to end: fp32 update even where bf16 is native")
+    p.add_argument("--no-bf16", action="store_true",
+                   help="--profile and MuJoCo end to end: fp32 update even where bf16 is native")
     p.add_argument("--torch-profile", action="store_true", help="--profile: add torch.profiler's top ops")
     p.add_argument("--learner", default="{}", help="--profile: learner config overrides as JSON {dotted: value}")
     p.add_argument("--worker", help=argparse.SUPPRESS)

@@ -12,8 +12,8 @@
 Methods (paper IV-A; envs/methods.py): ours (same-step contrast, adaptive clock), sequential (contrast with the next
 step), no_contrast, fixed_cycle, clock_free, and the baselines dreamwaq and dwl on our clock, and as their papers
 pair them: dreamwaq_clock_free (with AdaBoot) and dwl_fixed_cycle. Recipes (envs/recipes.py): walk (the default:
-what the shipped walkers trained with) and paper; a recipe's overrides come before --override's. Writes TensorBoard logs, checkpoints and, at the
-end, the exported policy (TorchScript, ONNX, deploy JSON) to the run directory.
+what the shipped walkers trained with) and paper; a recipe's overrides come before --override's. Writes TensorBoard
+logs, checkpoints and, at the end, the exported policy (TorchScript, ONNX, deploy JSON) to the run directory.
 """
 
 from __future__ import annotations
