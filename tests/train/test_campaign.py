@@ -49,6 +49,8 @@ def test_save_replaces_and_resume_continues(tmp_path):
     assert [(r["run"], r["iteration"], r["env_steps"]) for r in records] == [("arm_s1", 2, 3 * 8 * 24)]
     first_run = status(CampaignArgs("status", "c", (run,), iteration=0))
     assert first_run[0]["iteration"] == 0 and json.loads((tmp_path / "s.json").read_text())["runs"] == records
+    both = status(CampaignArgs("status", "c", (run, out / "arm_s1")))  # one name in two folders: both kept
+    assert [(r["run"], r["iteration"]) for r in both] == [("runs/arm_s1", 1), ("out/arm_s1", 2)]
 
 
 @pytest.mark.slow
