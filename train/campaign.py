@@ -242,14 +242,11 @@ def resume(a: CampaignArgs) -> int:
     return 0
 
 
-ROBOT_WAY = {"stairs_up": "(descends)", "slope_up": "(descends)", "stairs_down": "(climbs)", "slope_down": "(climbs)"}
-
-
 def status(a: CampaignArgs) -> list[dict]:
     """One record per run: its checkpoint, iteration, env steps, difficulty and mean terrain level per type."""
     from cra_warp.config_io import from_data
     from cra_warp.learning.checkpoint import read_checkpoint
-    from cra_warp.terrain import TerrainConfig, column_types
+    from cra_warp.terrain import ROBOT_WAY, TerrainConfig, column_types
     from cra_warp.terrain.curriculum import levels_by_type
     from train.train import newest_checkpoint
 
@@ -284,8 +281,7 @@ def status(a: CampaignArgs) -> list[dict]:
         records.append(rec)
     types = list(dict.fromkeys(t for r in records for t in r.get("terrain_level_by_type", {})))
     print(f"{'run':16} {'iter':>6} {'env steps':>10} " + " ".join(f"{t:>11}" for t in types))
-    # the tile types name the ground, not the robot's way: spawned on a pyramid's top it walks down, in a pit it climbs
-    print(f"{'':35}" + " ".join(f"{ROBOT_WAY.get(t, ''):>11}" for t in types))
+    print(f"{'':35}" + " ".join(f"{'(' + ROBOT_WAY[t] + ')' if t in ROBOT_WAY else '':>11}" for t in types))
     for r in records:
         by = r.get("terrain_level_by_type", {})
         print(f"{r['run']:16} {r['iteration']:6d} {r['env_steps'] / 1e6:9.2f}M "

@@ -24,6 +24,8 @@ import numpy as np
 # Column types, in the order of TerrainConfig.proportions. "up" tiles rise towards their centre (spawn on top),
 # "down" tiles are pits (spawn at the bottom).
 TERRAIN_TYPES = ("flat", "stairs_up", "stairs_down", "slope_up", "slope_down", "uneven")
+# what a robot spawned on each type does to leave its tile (the names say the ground, not the robot's way)
+ROBOT_WAY = {"stairs_up": "descends", "slope_up": "descends", "stairs_down": "climbs", "slope_down": "climbs"}
 
 
 @dataclass

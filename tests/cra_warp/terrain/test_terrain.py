@@ -239,3 +239,14 @@ def test_terrain_contacts_fit_the_worlds_buffers(stand_run):
     r = stand_run
     assert r["ncon"] < r["naconmax"] and r["nefc"] < r["njmax"]
     assert r["ncon"] >= 8 * r["num_envs"]  # every robot stands on its feet: >= 4 contacts per sole
+
+
+def test_robot_way_is_what_the_tiles_make_a_robot_do():
+    """A robot spawned on a "climbs" type stands below its tile's rim (a pit), on a "descends" type above it."""
+    from cra_warp.terrain import ROBOT_WAY, TerrainConfig, generate_terrain
+
+    t = generate_terrain(TerrainConfig(num_levels=2, num_cols=6, tile_size=8.0, resolution=0.1))
+    for c, kind in enumerate(t.column_types):
+        if kind in ROBOT_WAY:
+            centre = t.origins[1, c, 2]
+            assert (centre < t.base_height) == (ROBOT_WAY[kind] == "climbs"), kind
