@@ -16,7 +16,7 @@ import math
 import numpy as np
 import torch
 
-from cra_warp.terrain import HeightField, TerrainConfig, generate_terrain
+from cra_warp.terrain import ROBOT_WAY, HeightField, TerrainConfig, generate_terrain
 from cra_warp.terrain.boxes import terrain_boxes
 from cra_warp.terrain.course import Deployment, EvalCourse, EvalCourseConfig
 from cra_warp.terrain.curriculum import TerrainCurriculum, levels_by_type
@@ -87,6 +87,23 @@ class Ground:
                           commanded: torch.Tensor):
         if self.curriculum is not None:
             self.curriculum.update(ids, walked, farthest, commanded)
+
+    def climbing_envs(self) -> torch.Tensor | None:
+        """[N] bool: envs living on tiles they must climb out of (pits); None off the rough curriculum."""
+        if self.curriculum is None:
+            return None
+        climbs = torch.tensor([ROBOT_WAY.get(t) == "climbs" for t in self.column_types], device=self.curriculum.device)
+        return climbs[self.curriculum.cols]
+
+    def fall_line_heading(self, xy: torch.Tensor, random_axis: torch.Tensor) -> torch.Tensor:
+        """[N] world heading along the tile axis from each env's tile centre towards its robot at ``xy`` [N, 2]
+        (up a pit's face: the axis the robot is farthest along); within 0.5 m of the centre the axis
+        ``random_axis`` [N] (0..3). Rough ground only."""
+        rel = xy - self.curriculum.origins[:, :2]
+        along_x = rel[:, 0].abs() >= rel[:, 1].abs()
+        axis = torch.where(along_x, torch.where(rel[:, 0] >= 0, 0, 2), torch.where(rel[:, 1] >= 0, 1, 3))
+        axis = torch.where(rel.norm(dim=-1) < 0.5, random_axis, axis)
+        return axis.float() * (math.pi / 2)
 
     def mean_level(self) -> float:
         return float(self.curriculum.mean_level()) if self.curriculum is not None else 0.0

@@ -62,6 +62,12 @@ class CommandConfig:
     resample_time: float = 8.0                       # [s]
     standing_fraction: float = 0.1                   # share of envs commanded to stand still
     min_speed: float = 0.1                           # xy commands below this are set to zero
+    # Beyond the paper (issue 35): robots on the tiles they must climb out of (pits, ROBOT_WAY "climbs") are told to
+    # walk up a fall line, as the evaluation course meets its ascents head-on: heading along the tile axis that points
+    # from the tile centre towards the robot (a random axis near the centre), forward only at pit_lin_vel_x. Given
+    # any heading, robots left 7 deg pits across the fall line and side-stepped along the course's slopes (focus7).
+    pit_fall_line: bool = False
+    pit_lin_vel_x: tuple[float, float] = (0.15, 0.6)  # [m/s] their forward commands (the reach rule needs > 0.2)
 
 
 @dataclass

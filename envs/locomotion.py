@@ -375,6 +375,15 @@ class LocoEnv(VecEnv):
         standing = torch.rand(n, device=self.device, generator=self.gen) < c.standing_fraction
         cmd = torch.where(standing.unsqueeze(-1), 0.0, cmd)
         heading = self._uniform(-math.pi, math.pi, n)
+        climbing = self.ground.climbing_envs() if c.pit_fall_line else None
+        if climbing is not None:  # up a fall line, forward only (CommandConfig.pit_fall_line)
+            axis = torch.randint(0, 4, (self.num_envs,), device=self.device, generator=self.gen)
+            up = self.ground.fall_line_heading(self.world.root_pos[:, :2], axis)
+            climbing, up = (climbing, up) if masked else (climbing[ids], up[ids])
+            vx = self._uniform(*c.pit_lin_vel_x, n) * self.difficulty.command_scale
+            cmd[:, 0] = torch.where(climbing & ~standing, vx, cmd[:, 0])
+            cmd[:, 1] = torch.where(climbing, 0.0, cmd[:, 1])
+            heading = torch.where(climbing, up, heading)
         if masked:
             self.commands.copy_(torch.where(ids.unsqueeze(-1), cmd, self.commands))
             self.heading.copy_(torch.where(ids, heading, self.heading))

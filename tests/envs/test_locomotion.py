@@ -227,6 +227,33 @@ def test_an_early_fall_is_demoted_by_the_whole_episode_distance(rule):
         LocoConfig(terrain_curriculum="displacement")
 
 
+def test_robots_on_pits_are_told_to_walk_up_a_fall_line():
+    """With commands.pit_fall_line, robots on the tiles they climb out of get forward-only commands in
+    pit_lin_vel_x and a heading along a tile axis, pointing away from the tile centre once they are off it; the
+    others keep their random commands."""
+    from cra_warp.sim import WorldConfig
+    from envs.loco_config import CommandConfig
+
+    cmds = CommandConfig(pit_fall_line=True, pit_lin_vel_x=(0.2, 0.4), standing_fraction=0.0)
+    env = LocoEnv(LocoConfig(num_envs=12, device=DEVICE, terrain="rough", commands=cmds,
+                             world=WorldConfig(backend="mujoco" if DEVICE == "cpu" else "newton")))
+    pit = env.ground.climbing_envs()
+    assert pit.any() and (~pit).any()
+    for _ in range(3):
+        env._resample_commands(torch.arange(env.num_envs, device=env.device))
+        quarter = env.heading[pit] / (math.pi / 2)
+        assert torch.allclose(quarter, quarter.round(), atol=1e-5)
+        assert (env.commands[pit, 0] >= 0.2).all() and (env.commands[pit, 0] <= 0.4).all()
+        assert (env.commands[pit, 1] == 0).all()
+        assert not torch.allclose(env.heading[~pit] / (math.pi / 2), (env.heading[~pit] / (math.pi / 2)).round())
+    # off the centre, the axis points from the tile centre towards the robot: up the face it stands on
+    xy = env.ground.curriculum.origins[:, :2] + torch.tensor([-1.5, 0.4], device=env.device)
+    up = env.ground.fall_line_heading(xy, torch.zeros(env.num_envs, dtype=torch.long, device=env.device))
+    assert torch.allclose(up, torch.full_like(up, math.pi))
+    off = LocoEnv(LocoConfig(num_envs=2, device=DEVICE))   # flat ground: no pits, nothing changes
+    assert off.ground.climbing_envs() is None
+
+
 def test_the_task_on_the_mujoco_backend_has_the_same_layout_and_stays_finite():
     from cra_warp.sim import WorldConfig
 
