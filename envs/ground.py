@@ -37,6 +37,7 @@ class Ground:
         self.curriculum: TerrainCurriculum | None = None
         self.course: EvalCourse | None = None
         self.deployment: Deployment | None = None
+        self._climbing: torch.Tensor | None = None
         if kind == "eval":
             self.course = EvalCourse(course)
             per_level = num_envs // self.course.starts[..., 0].size   # LocoConfig checked divisibility
@@ -92,8 +93,11 @@ class Ground:
         """[N] bool: envs living on tiles they must climb out of (pits); None off the rough curriculum."""
         if self.curriculum is None:
             return None
-        climbs = torch.tensor([ROBOT_WAY.get(t) == "climbs" for t in self.column_types], device=self.curriculum.device)
-        return climbs[self.curriculum.cols]
+        if self._climbing is None:  # env i lives on column i mod C for the whole run
+            climbs = torch.tensor([ROBOT_WAY.get(t) == "climbs" for t in self.column_types],
+                                  device=self.curriculum.device)
+            self._climbing = climbs[self.curriculum.cols]
+        return self._climbing
 
     def fall_line_heading(self, xy: torch.Tensor, random_axis: torch.Tensor) -> torch.Tensor:
         """[N] world heading along the tile axis from each env's tile centre towards its robot at ``xy`` [N, 2]
