@@ -9,7 +9,8 @@ A campaign is a folder robots/<robot>/campaigns/<name>/ in the repository: for e
 checkpoint (actor, critic, optimizer, curriculum levels and the run's whole resolved config: a few MB), a
 campaign.json and a RESUME.md with the one command that continues every run on a fresh clone. ``save`` replaces
 what the folder held (never accumulates); ``resume`` restarts each run with the arguments stored in its checkpoint,
-``--resume`` from the committed file, logging to <out>/<run>/, all on the given cores (one core shared by every
+``--resume`` from the committed file (or from <out>/<run>/'s own newest checkpoint where this machine kept one
+further along), logging to <out>/<run>/, all on the given cores (one core shared by every
 run by default), until the campaign's target iteration. ``status`` tells where each run is (iteration, env steps,
 mean terrain level per terrain type: the pits are the ascents) from its checkpoint, the committed campaign's or
 each RUN directory's. The checkpoint is the source of truth: nothing else is
@@ -206,6 +207,8 @@ def _manifest(a: CampaignArgs) -> tuple[Path, dict]:
 
 
 def resume(a: CampaignArgs) -> int:
+    from train.train import newest_checkpoint
+
     folder, manifest = _manifest(a)
     out = a.out or Path.home() / "cra_runs" / a.name
     procs = []
@@ -215,7 +218,11 @@ def resume(a: CampaignArgs) -> int:
     for label, run in manifest["runs"].items():
         if a.only and label not in a.only:
             continue
+        log_dir = out / label
         ckpt = folder / run["checkpoint"]
+        kept = newest_checkpoint(log_dir) if log_dir.is_dir() else None
+        if kept is not None and int(kept.stem.split("_")[1]) > run["iteration"]:
+            ckpt = kept  # this machine kept the run, further along than the commit: lose none of it
         it, config = _stored(ckpt)
         left = manifest["target"] - it
         if a.iterations is not None:
@@ -223,7 +230,6 @@ def resume(a: CampaignArgs) -> int:
         if left <= 0:
             print(f"{label}: at iteration {it}, the target {manifest['target']} is reached")
             continue
-        log_dir = out / label
         argv = [sys.executable, "-m", "train.train", *train_argv(config["args"]), "--resume", str(ckpt),
                 "--log-dir", str(log_dir), "--max-iterations", str(left)]
         print(f"{label}: from iteration {it}, {left} more: {shlex.join(argv)}")

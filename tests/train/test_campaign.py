@@ -41,6 +41,10 @@ def test_save_replaces_and_resume_continues(tmp_path):
     assert resume(CampaignArgs("resume", "c", root=tmp_path / "campaigns", out=out, iterations=1, cores=(0, 1))) == 0
     continued = sorted(p.name for p in (out / "arm_s1").rglob("model_*.pt"))
     assert continued == ["model_2.pt"]
+    # again, before any save: from this machine's model_2, not the committed model_1
+    assert resume(CampaignArgs("resume", "c", root=tmp_path / "campaigns", out=out, iterations=1, cores=(0, 1))) == 0
+    assert sorted(p.name for p in (out / "arm_s1").rglob("model_*.pt")) == ["model_2.pt", "model_3.pt"]
+    (next((out / "arm_s1").rglob("model_3.pt"))).unlink()
     folder = save(CampaignArgs("save", "c", (out / "arm_s1",), root=tmp_path / "campaigns"))
     assert sorted(p.name for p in folder.glob("*/*.pt")) == ["model_2.pt"]  # replaced, not accumulated
     manifest = json.loads((folder / "campaign.json").read_text())
