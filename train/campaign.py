@@ -148,18 +148,24 @@ def _record(run: Path) -> Path:
     return run.parent / f"{run.name}.json"
 
 
+def _kept(run_dir: Path) -> tuple[Path | None, int]:
+    """The newest checkpoint this machine holds under a run's directory and its iteration ((None, -1): none)."""
+    from train.train import newest_checkpoint
+
+    ckpt = newest_checkpoint(run_dir) if run_dir.is_dir() else None
+    return ckpt, int(ckpt.stem.split("_")[1]) if ckpt is not None else -1
+
+
 def restore(a: CampaignArgs) -> list[Path]:
     """Every run's checkpoint back as <out>/<run>/model_<it>.pt (and its record as <out>/<run>.json), no training;
     a run whose directory already holds a checkpoint at least as far along is left as it is (said so)."""
-    from train.train import newest_checkpoint
-
     folder, manifest = _manifest(a)
     out = a.out or Path.home() / "cra_runs" / a.name
     restored = []
     for label, run in manifest["runs"].items():
         ckpt, run_dir = folder / run["checkpoint"], out / label
-        have = newest_checkpoint(run_dir) if run_dir.is_dir() else None
-        if have is not None and int(have.stem.split("_")[1]) >= run["iteration"]:
+        have, have_it = _kept(run_dir)
+        if have is not None and have_it >= run["iteration"]:
             print(f"{label}: {have} is as far as the campaign's iteration {run['iteration']} or further: left as "
                   "it is")
             continue
@@ -207,8 +213,6 @@ def _manifest(a: CampaignArgs) -> tuple[Path, dict]:
 
 
 def resume(a: CampaignArgs) -> int:
-    from train.train import newest_checkpoint
-
     folder, manifest = _manifest(a)
     out = a.out or Path.home() / "cra_runs" / a.name
     procs = []
@@ -220,8 +224,8 @@ def resume(a: CampaignArgs) -> int:
             continue
         log_dir = out / label
         ckpt = folder / run["checkpoint"]
-        kept = newest_checkpoint(log_dir) if log_dir.is_dir() else None
-        if kept is not None and int(kept.stem.split("_")[1]) > run["iteration"]:
+        kept, kept_it = _kept(log_dir)
+        if kept is not None and kept_it > run["iteration"]:
             ckpt = kept  # this machine kept the run, further along than the commit: lose none of it
         it, config = _stored(ckpt)
         left = manifest["target"] - it
