@@ -358,6 +358,18 @@ class LocoEnv(VecEnv):
             s[ids] = 0.0
         self._resample_commands(ids)
 
+    def restore_terrain_levels(self, levels) -> None:
+        """Put every robot on the tile of its saved terrain level [N] (a resumed run) and start all episodes
+        again there. The episodes cut short were walked on the tiles the env was built on (level 0): judged, a
+        pit robot would climb out of its easy tile and be promoted above its saved level, a jump of 0.3-0.5 mean
+        level after every resume."""
+        self.ground.curriculum.restore(levels)
+        self.episode_length_buf.zero_()  # not judged by the curriculum (reset_idx judges episodes that ran)
+        self.reset_idx(torch.arange(self.num_envs, device=self.device))
+        self._refresh()
+        self._heading_control()
+        self.obs = self._observations()
+
     def _uniform(self, lo: float, hi: float, *shape) -> torch.Tensor:
         return lo + (hi - lo) * torch.rand(*shape, device=self.device, generator=self.gen)
 

@@ -338,7 +338,7 @@ def run(a: TrainArgs):
         saved_tiles = ((infos.get("config") or {}).get("env") or {}).get("rough")
         same_tiles = _tiles(saved_tiles) == _tiles(to_data(env_cfg.rough))
         if len(saved) == a.num_envs and same_tiles:
-            env.ground.curriculum.restore(saved)
+            env.restore_terrain_levels(saved)
         elif rank == 0:
             why = "on other tiles (rough.*)" if not same_tiles else f"for {len(saved)} robots, not {a.num_envs}"
             print(f"cra-train: the checkpoint's terrain levels were saved {why}: the terrain curriculum starts "

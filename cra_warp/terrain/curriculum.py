@@ -101,7 +101,8 @@ class TerrainCurriculum:
 
     def restore(self, levels) -> None:
         """Set every env's level [N] (a resumed run continues where its checkpoint was). The robots on the floor
-        now keep their tiles until their next reset, when they spawn on the restored level's tile."""
+        keep their tiles until their next reset, when they spawn on the restored level's tile: the env respawns
+        them at once (LocoEnv.restore_terrain_levels), so no episode on the old tiles is judged."""
         levels = torch.as_tensor(levels, dtype=torch.long, device=self.device)
         if levels.shape != self.levels.shape:
             raise ValueError(f"terrain levels for {tuple(levels.shape)} envs, this curriculum has "

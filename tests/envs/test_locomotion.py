@@ -227,6 +227,23 @@ def test_an_early_fall_is_demoted_by_the_whole_episode_distance(rule):
         LocoConfig(terrain_curriculum="displacement")
 
 
+def test_restored_terrain_levels_respawn_every_robot_on_its_levels_tile_unjudged():
+    """A resumed run's robots start again on their saved levels' tiles at once, and the episodes cut short on the
+    tiles the env was built on (level 0, easy to leave) promote nobody."""
+    env = LocoEnv(LocoConfig(num_envs=6, device=DEVICE, terrain="rough", terrain_curriculum="reach"))
+    cur = env.ground.curriculum
+    # every robot has left its level-0 tile: judged at a reset, each would be promoted
+    env.episode_length_buf[:] = 100
+    env.path.reach[:] = 10.0
+    saved = torch.tensor([3, 5, 1, 7, 2, 4], device=env.device)
+    env.restore_terrain_levels(saved)
+    assert cur.levels.tolist() == saved.tolist()
+    xy = env.root_pos[:, :2]
+    assert torch.allclose(xy, cur.tile_origins[saved, cur.cols][:, :2], atol=1e-3)
+    assert (env.episode_length_buf == 0).all() and (env.path.reach == 0).all()
+    assert torch.isfinite(env.obs["policy"]).all()
+
+
 def test_robots_on_pits_are_told_to_walk_up_a_fall_line():
     """With commands.pit_fall_line, robots on the tiles they climb out of get forward-only commands in
     pit_lin_vel_x and a heading along a tile axis, pointing away from the tile centre once they are off it; the
