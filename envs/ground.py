@@ -85,9 +85,9 @@ class Ground:
         return self.deployment.yaw[ids] if self.deployment is not None else None
 
     def update_curriculum(self, ids: torch.Tensor, walked: torch.Tensor, farthest: torch.Tensor,
-                          commanded: torch.Tensor):
+                          commanded: torch.Tensor, fell: torch.Tensor | None = None):
         if self.curriculum is not None:
-            self.curriculum.update(ids, walked, farthest, commanded)
+            self.curriculum.update(ids, walked, farthest, commanded, fell)
 
     def climbing_envs(self) -> torch.Tensor | None:
         """[N] bool: envs living on tiles they must climb out of (pits); None off the rough curriculum."""

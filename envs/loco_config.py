@@ -217,7 +217,7 @@ class LocoConfig:
     difficulty: DifficultyConfig = field(default_factory=DifficultyConfig)
     terrain: str = "flat"                                 # "flat", "rough" (the curriculum course) or "eval"
     course: EvalCourseConfig = field(default_factory=EvalCourseConfig)  # terrain "eval": the evaluation course
-    terrain_curriculum: str = "path"                      # terrain "rough": its promotion rule, "path" or "reach"
+    terrain_curriculum: str = "path"                      # terrain "rough": its promotion rule (curriculum.RULES)
     rough: TerrainConfig = field(default_factory=TerrainConfig)  # terrain "rough": its tiles (seed: the run's)
     clip_joint_actions: float = 10.0
     # 0: q* = q_ref + robot.action_scale a on every joint (the vendor's 0.5). > 0: a per-joint scale of

@@ -174,7 +174,7 @@ class LocoEnv(VecEnv):
         if len(ids):
             extras["log"] = self._episode_log(ids)
             self.nonfinite_resets += int(nonfinite.sum())
-            self.reset_idx(ids)
+            self.reset_idx(ids, fell[ids])
             self._refresh()  # the reset worlds' observations show their new state
         extras["log"]["/nonfinite_resets"] = float(self.nonfinite_resets)
         if self.world.windows is not None:  # terrain boxes left out of a full window (none on our courses)
@@ -319,7 +319,8 @@ class LocoEnv(VecEnv):
         return torch.cat([parts[k] for k in layout], -1)
 
     # ------------------------------------------------------------------ resets, commands, randomisation
-    def reset_idx(self, ids: torch.Tensor):
+    def reset_idx(self, ids: torch.Tensor, fell: torch.Tensor | None = None):
+        """Start envs ``ids`` [n] again; ``fell`` [n] bool: their episodes ended in a fall (the curriculum's)."""
         n = len(ids)
         if n == 0:
             return
@@ -328,7 +329,8 @@ class LocoEnv(VecEnv):
             # judged against the whole episode at the mean commanded speed: an early fall is a demotion
             lived = self.episode_length_buf[ids].clamp(min=1).float() * self.dt
             expected = self.commanded_dist[ids] / lived * self.cfg.episode_length_s
-            self.ground.update_curriculum(ids, self.path.walked(ids, xy), self.path.farthest(ids, xy), expected)
+            self.ground.update_curriculum(ids, self.path.walked(ids, xy), self.path.farthest(ids, xy), expected,
+                                          fell)
         origins = self.ground.spawn_origins(ids)  # [n, 3] ground point
         q = self.world.default_joint_q[ids].clone()
         q[:, :2] = origins[:, :2]

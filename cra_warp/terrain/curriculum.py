@@ -9,6 +9,9 @@ Rule "reach", on the farthest it got from its origin (out of a pit, down a pyram
 - promote when that is more than half a tile;
 - demote when it is less than half of the commanded distance or of half a tile, whichever is shorter: a robot
   stuck at the foot of a pit's wall (1.5 m out) is demoted wherever it walks on the floor.
+Rule "reach_upright": as "reach", and a robot that fell is demoted too (unless it got out). Under "reach" a robot
+that climbs one step of a stair pit (2 m out) and falls holds its level: the fall-line runs held stair pits at
+levels 2-3 (9-13 cm rises) while they fell on every 10 cm flight of the course.
 Both:
 - robots promoted past the top level go to a random level, so the top keeps being revisited and none saturate.
 Columns are assigned round-robin (env i -> column i mod C); the columns already carry the type proportions.
@@ -34,7 +37,7 @@ import torch
 
 from cra_warp.terrain import Terrain
 
-RULES = ("path", "reach")
+RULES = ("path", "reach", "reach_upright")
 
 
 @functools.lru_cache(maxsize=8)
@@ -78,12 +81,12 @@ class TerrainCurriculum:
         self.origins = self.tile_origins[self.levels, self.cols]                                      # [N, 3]
 
     def update(self, env_ids: torch.Tensor, walked: torch.Tensor, farthest: torch.Tensor,
-               commanded: torch.Tensor) -> None:
+               commanded: torch.Tensor, fell: torch.Tensor | None = None) -> None:
         """Move envs ``env_ids`` [n] up/down a level after their episodes.
 
         walked [n]: distance (xy, m) along the path in the episode; farthest [n]: the largest distance (xy, m) from
         the origin in it; commanded [n]: the distance the commands ask for over a whole episode (m), whenever the
-        episode ended.
+        episode ended; fell [n] bool: the episode ended in a fall (rule "reach_upright"; None: nobody fell).
         """
         lv = self.levels[env_ids]
         if self.rule == "path":
@@ -91,7 +94,10 @@ class TerrainCurriculum:
             down = (walked < 0.5 * commanded) & ~up
         else:
             up = farthest > self.promote_distance
-            down = (farthest < 0.5 * commanded.clamp(max=self.promote_distance)) & ~up
+            down = farthest < 0.5 * commanded.clamp(max=self.promote_distance)
+            if self.rule == "reach_upright" and fell is not None:
+                down = down | fell
+            down = down & ~up
         lv = lv + up.long() - down.long()
         wrap = lv >= self.num_levels
         lv = torch.where(wrap, torch.randint(0, self.num_levels, lv.shape, generator=self._gen, device=self.device),

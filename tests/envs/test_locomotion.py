@@ -210,7 +210,7 @@ def test_heading_mode_observed_yaw_command_is_the_rewarded_one():
     assert torch.allclose(observed[-1], torch.where(moving, want, 0.0), atol=1e-6)
 
 
-@pytest.mark.parametrize("rule", ["path", "reach"])
+@pytest.mark.parametrize("rule", ["path", "reach", "reach_upright"])
 def test_an_early_fall_is_demoted_by_the_whole_episode_distance(rule):
     """Walking 0.6 m in 1 s under a 1 m/s command is more than half of what that second asked, but far less than
     half of what the 20 s episode asked: legged_gym's rule demotes it, under either promotion rule."""
@@ -225,6 +225,23 @@ def test_an_early_fall_is_demoted_by_the_whole_episode_distance(rule):
     assert cur.levels.tolist() == [1, 2]
     with pytest.raises(ValueError, match="terrain_curriculum must be one of"):
         LocoConfig(terrain_curriculum="displacement")
+
+
+def test_a_fall_demotes_under_the_reach_upright_rule_and_a_time_out_does_not():
+    """Two robots 2.5 m out of their tiles' centres (under "reach" both would hold their level): the one that
+    falls is demoted, the one whose time runs out stays."""
+    env = LocoEnv(LocoConfig(num_envs=2, device=DEVICE, terrain="rough", terrain_curriculum="reach_upright"))
+    cur = env.ground.curriculum
+    env.restore_terrain_levels(torch.tensor([3, 3], device=env.device))
+    env.episode_length_buf[:] = env.max_episode_length - 1
+    env.commanded_dist[:] = 10.0
+    env.path.reach[:] = 2.5
+    q = env.world.joint_q[0].clone()
+    q[2] = env.ground_under_base[0] + 0.3  # pelvis 30 cm above the ground: fallen
+    env.world.reset(torch.tensor([0], device=env.device), joint_q=q.unsqueeze(0))
+    _, _, dones, extras = env.step(torch.zeros(env.num_envs, env.num_actions, device=env.device))
+    assert dones.tolist() == [1, 1] and extras["time_outs"].tolist() == [False, True]
+    assert cur.levels.tolist() == [2, 3]
 
 
 def test_restored_terrain_levels_respawn_every_robot_on_its_levels_tile_unjudged():

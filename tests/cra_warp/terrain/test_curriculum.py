@@ -43,6 +43,18 @@ def test_curriculum_reach_rule_judges_the_farthest_point(terrain):
         TerrainCurriculum(terrain, 2, rule="displacement")
 
 
+def test_curriculum_reach_upright_rule_also_demotes_a_fall(terrain):
+    """Rule "reach_upright": a robot that fell halfway out of a pit is demoted (under "reach" it holds its level);
+    one that got out is promoted however its episode ended."""
+    farthest = torch.tensor([2.5, 2.5, 4.5, 1.0])
+    fell = torch.tensor([True, False, True, False])
+    for rule, want in (("reach", [3, 3, 4, 2]), ("reach_upright", [2, 3, 4, 2])):
+        cur = TerrainCurriculum(terrain, 4, rule=rule)
+        cur.levels[:] = 3
+        cur.update(torch.arange(4), torch.full((4,), 9.0), farthest, torch.full((4,), 10.0), fell)
+        assert cur.levels.tolist() == want, rule
+
+
 def test_curriculum_wrap_spreads_over_levels(terrain):
     cur = TerrainCurriculum(terrain, 600, max_init_level=9, seed=1)
     cur.levels[:] = 9
