@@ -14,7 +14,9 @@ further along), logging to <out>/<run>/, all on the given cores (one core shared
 run by default), until the campaign's target iteration. ``status`` tells where each run is (iteration, env steps,
 mean terrain level per terrain type: the pits are the ascents) from its checkpoint, the committed campaign's or
 each RUN directory's. The checkpoint is the source of truth: nothing else is
-needed to continue, so a lost ~/cra_runs costs at most the iterations since the last save.
+needed to continue, so a lost ~/cra_runs costs at most the iterations since the last save. Commit a save once
+per working session, at its end: each save rewrites every run's ~13 MB file, and a submission's diffs are capped
+(a session that committed four runs' saves several times was refused whole, its results lost).
 
 A cra-grid study keeps several runs under one directory (<out>/train/<method>-s<seed>/, <out>/walk/...): ``save``
 takes them all (``cra-campaign save NAME <out>/walk/*/``), each with the record the study keeps beside its directory

@@ -208,6 +208,12 @@ class LearnerConfig:
     # Weight of the actor's left-right mirror loss (cra_warp/learning/symmetry.py; beyond the paper), 0 = off. The
     # maps come from the task (the runner reads them off the env).
     symmetry_weight: float = 0.0
+    # Weight of a loss on the actor's action mean beyond the env's clip (sum over actions of relu(|mu| - bound)^2;
+    # beyond the paper), 0 = off. The env clips the gait actions to +-1, so a mean that drifted past the clip sends
+    # every sample to the same clock rate and PPO gets no signal to slow it down again: the climbing runs' rate mean
+    # sat at 2.5-3.1 with the rate pinned at its 1.5x ceiling on every terrain. Inside the bounds it is zero, so
+    # it changes no optimum, only where the search can go. The bounds come from the task (LocoEnv.action_bounds).
+    action_bound_weight: float = 0.0
     # How the update reads the rollout (CRAPPO): the critic's values in one pass over the whole rollout after
     # collection (equal to rsl-rl's per-step values, tests/cra_warp/learning/test_ppo_whole_envs.py; False: rsl-rl's per step), and
     # mini-batches of whole environments without padding (equal to rsl-rl's padded ones; slower on our CPUs)
@@ -290,6 +296,6 @@ def runner_cfg(cfg: LearnerConfig | None = None) -> dict:
                       if "observation" in cfg.privileged_slices else None,
                       "representation_weight": representation_weight, "critic_warmup": cfg.critic_warmup,
                       "critic_warmup_learning_rate": cfg.critic_warmup_learning_rate,
-                      "symmetry_weight": cfg.symmetry_weight,
+                      "symmetry_weight": cfg.symmetry_weight, "action_bound_weight": cfg.action_bound_weight,
                       "batched_values": cfg.batched_values, "whole_env_update": cfg.whole_env_update},
     }

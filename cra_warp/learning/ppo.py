@@ -97,7 +97,8 @@ class CRAPPO(PPO):
                  representation_weight: float = 1.0, actor_obs_slice: tuple[int, int] | None = None,
                  critic_warmup: int = 0, critic_warmup_learning_rate: float | None = None,
                  batched_values: bool = True, whole_env_update: bool = False,
-                 symmetry_weight: float = 0.0, mirror: dict | None = None, **kwargs) -> None:
+                 symmetry_weight: float = 0.0, mirror: dict | None = None,
+                 action_bound_weight: float = 0.0, action_bounds: list[float] | None = None, **kwargs) -> None:
         super().__init__(actor, critic, storage, **kwargs)
         # batched values need our CRACritic with a GRU; the whole-env update also a GRU CRAActor
         self.batched_values = (batched_values and isinstance(critic, CRACritic) and self.rnd is None
@@ -142,6 +143,12 @@ class CRAPPO(PPO):
             terms.append((cfg.weight, self._contrast_term))
         if hasattr(actor, "representation_loss"):
             terms.append((representation_weight, lambda batch: self._raw_actor.representation_loss(batch)))
+        if action_bound_weight:
+            if action_bounds is None or len(action_bounds) != storage.actions.shape[-1]:
+                raise ValueError(f"the action bound loss needs one bound per action ({storage.actions.shape[-1]}), "
+                                 f"got {None if action_bounds is None else len(action_bounds)}")
+            self.action_bounds = torch.as_tensor(action_bounds, dtype=torch.float, device=self.device)
+            terms.append((action_bound_weight, self._bound_term))
         if symmetry_weight:
             if not isinstance(actor, CRAActor) or not mirror:
                 raise ValueError("the mirror loss needs a CRAActor and the task's mirror maps (mirror={'obs': "
@@ -162,6 +169,12 @@ class CRAPPO(PPO):
         if cfg["actor"].get("adaboot"):
             obs = with_bootstrap(obs, torch.zeros(obs.batch_size[0], 1, device=obs.device))
         return PPO.construct_algorithm(obs, env, cfg, device)
+
+    def _bound_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
+        """sum over actions of relu(|mu| - bound)^2 on the last actor forward's means, averaged over the samples."""
+        excess = torch.relu(self._raw_actor.output_mean.float().abs() - self.action_bounds)
+        loss = excess.square().sum(-1).mean()
+        return loss, {"action_bound": loss.item()}
 
     def _mirror_term(self, batch) -> tuple[torch.Tensor, dict[str, float]]:
         starts = None

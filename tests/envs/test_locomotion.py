@@ -357,6 +357,23 @@ def test_fixed_cycle_ignores_the_gait_actions():
     assert not torch.allclose(adaptive.clock.phase[0], adaptive.clock.phase[1])  # the same actions do steer it
 
 
+def test_actions_are_clipped_to_the_bounds_the_learner_is_told():
+    """step() clips the joints to +-clip_joint_actions and the gait actions to +-1, the bounds LocoEnv.action_bounds
+    hands the learner's action bound loss: a rate action of +-50 runs the clock at 1 +- alpha x beta_scale."""
+    cfg = LocoConfig(num_envs=2, device=DEVICE, obs=ObsConfig(noise=False))
+    cfg.gait.alpha, cfg.gait.beta_scale = 5.0, 0.1
+    e = LocoEnv(cfg)
+    assert e.action_bounds == [cfg.clip_joint_actions] * J + [1.0] * 3
+    a = torch.full((2, e.num_actions), 50.0, device=e.device)
+    a[1] = -50.0
+    e.step(a)
+    assert torch.equal(e.actions[:, :J].abs(), torch.full((2, J), cfg.clip_joint_actions, device=e.device))
+    assert torch.equal(e.actions[:, J:], torch.tensor([[1.0] * 3, [-1.0] * 3], device=e.device))
+    assert torch.allclose(e.clock.phase, torch.tensor([1.5, 0.5], device=e.device) * e.dt, atol=1e-6)
+    free = LocoEnv(LocoConfig(num_envs=1, device=DEVICE, variant="clock_free", obs=ObsConfig(noise=False)))
+    assert free.action_bounds == [cfg.clip_joint_actions] * J
+
+
 def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
     c = env.cfg.commands
     cmds = []

@@ -382,7 +382,7 @@ def test_terrain_levels_carry_over_only_onto_the_same_tiles():
 
 
 @pytest.mark.slow
-def test_cra_train_reads_the_mirror_maps_off_the_task(tmp_path):
+def test_cra_train_reads_the_mirror_maps_and_the_action_bounds_off_the_task(tmp_path):
     import glob
     import subprocess
     import sys
@@ -391,11 +391,13 @@ def test_cra_train_reads_the_mirror_maps_off_the_task(tmp_path):
 
     subprocess.run([sys.executable, "-m", "train.train", "--sim", "mujoco", "--num-envs", "8", "--mini-batches", "2",
                     "--max-iterations", "2", "--log-dir", str(tmp_path), "--no-export", "--quiet",
-                    "--override", "learner.symmetry_weight=0.5"], check=True, capture_output=True)
+                    "--override", "learner.symmetry_weight=0.5", "learner.action_bound_weight=0.1"],
+                   check=True, capture_output=True)
     ea = EventAccumulator(glob.glob(str(tmp_path / "*"))[0])
     ea.Reload()
     values = [e.value for e in ea.Scalars("Loss/mirror")]
     assert len(values) == 2 and all(v > 0 for v in values)
+    assert len(ea.Scalars("Loss/action_bound")) == 2  # a fresh policy's means sit inside the clip: the loss is 0
 
 
 def test_an_unknown_robot_is_one_line_naming_it_and_the_known_ones(capsys, tmp_path):

@@ -125,3 +125,42 @@ def test_ppo_logs_and_trains_the_mirror_term(whole_envs):
     train_cfg["algorithm"].pop("mirror")
     with pytest.raises(ValueError, match="mirror maps"):
         OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")
+
+
+def test_action_bound_loss_pulls_a_drifted_mean_back_inside_the_clip():
+    """A gait action mean past the env's clip of +-1 gets a loss that brings it back; without the weight nothing
+    pulls it (the clipped action is all the env sees); a missing bound per action is refused."""
+    from rsl_rl.runners import OnPolicyRunner
+
+    from cra_warp.learning import ContrastConfig, LearnerConfig, PPOConfig, runner_cfg
+    from cra_warp.learning.bench import DummyEnv, collect
+
+    def gait_mean_after(weight: float, updates: int = 8) -> tuple[float, float, dict]:
+        torch.manual_seed(0)
+        env = DummyEnv(8, seed=0)
+        cfg = LearnerConfig(num_steps_per_env=8, privileged_slices=env.privileged_slices, action_bound_weight=weight,
+                            contrast=ContrastConfig(variant="none"), ppo=PPOConfig(num_mini_batches=2))
+        train_cfg = runner_cfg(cfg)
+        train_cfg["algorithm"]["action_bounds"] = [10.0] * 23 + [1.0] * 3
+        alg = OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu").alg
+        with torch.no_grad():
+            alg.actor.mlp[-1].bias[-3:] = 3.0               # the rate and offsets' means far past the clip
+        obs = env.get_observations()
+        before = alg.actor(obs)[:, -3:].mean().item()              # the deterministic output: the mean
+        out = {}
+        for _ in range(updates):
+            collect(alg, env, 8)
+            out = alg.update()
+        alg.actor.reset()
+        return before, alg.actor(obs)[:, -3:].mean().item(), out
+
+    before, bounded, out = gait_mean_after(1.0)
+    _, free, out_free = gait_mean_after(0.0)
+    assert before > 2.5 and out["action_bound"] > 0 and "action_bound" not in out_free
+    assert bounded < before - 0.2 and bounded < free - 0.2
+
+    env = DummyEnv(8, seed=0)
+    train_cfg = runner_cfg(LearnerConfig(num_steps_per_env=8, privileged_slices=env.privileged_slices,
+                                         action_bound_weight=1.0))
+    with pytest.raises(ValueError, match="one bound per action"):
+        OnPolicyRunner(env, train_cfg, log_dir=None, device="cpu")

@@ -3,6 +3,8 @@ per-step critic gave, and the whole-environment update gives the padded update's
 
 from __future__ import annotations
 
+import copy
+
 import pytest
 import torch
 from rsl_rl.runners import OnPolicyRunner
@@ -50,7 +52,10 @@ def test_batched_values_are_the_stepped_critics():
 @pytest.mark.parametrize("variant", ["same_step", "sequential", "none"])
 def test_whole_env_update_is_the_padded_update(variant):
     """From the same rollout and parameters, one update over whole-env mini-batches ends where rsl-rl's padded
-    update ends: the same losses, learning rate and parameters (fp32)."""
+    update ends: the same losses, learning rate and parameters (fp32). Adam divides each gradient by its own
+    running size, so an element whose gradient is float noise steps by up to the learning rate either way (seen on
+    AVX2 CPUs, whose reductions round differently): at most 0.1% of the elements may differ, each by no more than
+    the update moved any element. A wrong update (another rollout) moves ~99% of them."""
     padded, env_a = make(batched_values=False, variant=variant)
     whole, env_b = make(batched_values=False, variant=variant)
     whole.whole_env_update = True
@@ -58,6 +63,7 @@ def test_whole_env_update_is_the_padded_update(variant):
         torch.manual_seed(100)
         collect(alg, env, STEPS)
     assert padded.storage.dones[:-1].sum() >= 2  # trajectories split inside the window
+    start = [copy.deepcopy(m.state_dict()) for m in (padded.actor, padded.critic)]
     out_a, out_b = padded.update(), whole.update()
     assert out_a.keys() == out_b.keys()
     for k in out_a:
@@ -66,9 +72,16 @@ def test_whole_env_update_is_the_padded_update(variant):
     models = [(padded.actor, whole.actor), (padded.critic, whole.critic)]
     if variant != "none":
         models.append((padded.heads, whole.heads))
+    step = max((pa - p0).abs().max().item() for (ma, _), s0 in zip(models, start)
+               for pa, p0 in zip(ma.state_dict().values(), s0.values()) if pa.is_floating_point())
+    off = total = 0
     for ma, mb in models:
         for (name, pa), pb in zip(ma.state_dict().items(), mb.state_dict().values()):
-            torch.testing.assert_close(pb, pa, atol=2e-5, rtol=1e-4, msg=name)
+            diff = (pb - pa).abs()
+            off += int((diff > 2e-5 + 1e-4 * pa.abs()).sum())
+            total += diff.numel()
+            assert diff.max().item() <= 2 * step + 2e-5, name
+    assert off <= 1e-3 * total, f"{off} of {total} parameters differ"
 
 
 def test_whole_env_update_runs_in_bf16_and_moves_every_part():
