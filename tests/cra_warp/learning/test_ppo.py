@@ -146,7 +146,7 @@ def test_action_bound_loss_pulls_a_drifted_mean_back_inside_the_clip():
         with torch.no_grad():
             alg.actor.mlp[-1].bias[-3:] = 3.0               # the rate and offsets' means far past the clip
         obs = env.get_observations()
-        before = alg.actor(obs)[:, -3:].mean().item()              # the deterministic output: the mean
+        before = alg.actor(obs)[:, -3:].mean().item()       # the deterministic output: the mean
         out = {}
         for _ in range(updates):
             collect(alg, env, 8)

@@ -55,7 +55,7 @@ def test_whole_env_update_is_the_padded_update(variant):
     update ends: the same losses, learning rate and parameters (fp32). Adam divides each gradient by its own
     running size, so an element whose gradient is float noise steps by up to the learning rate either way (seen on
     AVX2 CPUs, whose reductions round differently): at most 0.1% of the elements may differ, each by no more than
-    the update moved any element. A wrong update (another rollout) moves ~99% of them."""
+    the update moved any element. A wrong update (another rollout) moves ~80% of them."""
     padded, env_a = make(batched_values=False, variant=variant)
     whole, env_b = make(batched_values=False, variant=variant)
     whole.whole_env_update = True
@@ -63,15 +63,15 @@ def test_whole_env_update_is_the_padded_update(variant):
         torch.manual_seed(100)
         collect(alg, env, STEPS)
     assert padded.storage.dones[:-1].sum() >= 2  # trajectories split inside the window
-    start = [copy.deepcopy(m.state_dict()) for m in (padded.actor, padded.critic)]
+    models = [(padded.actor, whole.actor), (padded.critic, whole.critic)]
+    if variant != "none":
+        models.append((padded.heads, whole.heads))
+    start = [copy.deepcopy(ma.state_dict()) for ma, _ in models]
     out_a, out_b = padded.update(), whole.update()
     assert out_a.keys() == out_b.keys()
     for k in out_a:
         assert out_b[k] == pytest.approx(out_a[k], rel=1e-4, abs=1e-5), k
     assert whole.learning_rate == pytest.approx(padded.learning_rate)
-    models = [(padded.actor, whole.actor), (padded.critic, whole.critic)]
-    if variant != "none":
-        models.append((padded.heads, whole.heads))
     step = max((pa - p0).abs().max().item() for (ma, _), s0 in zip(models, start)
                for pa, p0 in zip(ma.state_dict().values(), s0.values()) if pa.is_floating_point())
     off = total = 0
