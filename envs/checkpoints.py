@@ -13,13 +13,15 @@ from cra_warp.learning.runner import CraRunner
 def make_runner(env, train_cfg: dict, **kw) -> CraRunner:
     """CraRunner for the task ``env``, with the task's mirror maps when the learner uses the symmetry loss and its
     action clip when it uses the action bound loss (``kw``: CraRunner's log_dir, device, quiet, run_info)."""
-    mirror = None
-    if train_cfg.get("algorithm", {}).get("symmetry_weight"):
+    alg, task_args = train_cfg.get("algorithm", {}), {}
+    if alg.get("symmetry_weight"):
         from envs.observations import action_mirror, actor_mirror
 
-        mirror = {"obs": actor_mirror(env.layout, env.robot, env.cfg.uses_clock),
-                  "actions": action_mirror(env.robot, env.cfg.uses_clock)}
-    return CraRunner(env, train_cfg, mirror=mirror, action_bounds=env.action_bounds, **kw)
+        task_args["mirror"] = {"obs": actor_mirror(env.layout, env.robot, env.cfg.uses_clock),
+                               "actions": action_mirror(env.robot, env.cfg.uses_clock)}
+    if alg.get("action_bound_weight"):
+        task_args["action_bounds"] = env.action_bounds.tolist()
+    return CraRunner(env, train_cfg, task_args=task_args, **kw)
 
 
 def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str | None = None,

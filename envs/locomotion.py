@@ -40,9 +40,9 @@ class LocoEnv(VecEnv):
         self.num_envs = N = cfg.num_envs
         J = robot.num_joints
         self.num_actions = J + (3 if cfg.uses_clock else 0)
-        # what step() clips each action to: the joints to +-clip_joint_actions, the three gait actions to +-1
-        self.action_bounds = [cfg.clip_joint_actions] * J + [1.0] * (self.num_actions - J)
-        self.action_bounds_t = torch.tensor(self.action_bounds, device=self.device)
+        # [num_actions] what step() clips each action to: the joints to +-clip_joint_actions, the gait actions to +-1
+        self.action_bounds = torch.tensor([cfg.clip_joint_actions] * J + [1.0] * (self.num_actions - J),
+                                          device=self.device)
         self.dt = cfg.world.env_dt
         self.max_episode_length = math.ceil(cfg.episode_length_s / self.dt)
         self.gen = torch.Generator(device=self.device).manual_seed(cfg.seed)
@@ -134,7 +134,7 @@ class LocoEnv(VecEnv):
         finite = torch.isfinite(actions).all(-1)
         actions = torch.where(finite.unsqueeze(-1), actions, 0.0)  # a non-finite action never reaches the sim
         J = self.robot.num_joints
-        a = actions.clamp(-self.action_bounds_t, self.action_bounds_t)
+        a = actions.clamp(-self.action_bounds, self.action_bounds)
         self.last_last_actions.copy_(self.last_actions)
         self.last_actions.copy_(self.actions)
         self.actions.copy_(a)

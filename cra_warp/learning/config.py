@@ -210,8 +210,8 @@ class LearnerConfig:
     symmetry_weight: float = 0.0
     # Weight of a loss on the actor's action mean beyond the env's clip (sum over actions of relu(|mu| - bound)^2;
     # beyond the paper), 0 = off. The env clips the gait actions to +-1, so a mean that drifted past the clip sends
-    # every sample to the same clock rate and PPO gets no signal to slow it down again: the climbing runs' rate mean
-    # sat at 2.5-3.1 with the rate pinned at its 1.5x ceiling on every terrain. Inside the bounds it is zero, so
+    # every sample to the same clock rate and PPO gets no signal to slow it down again: in the climbing runs the rate
+    # sat at its 1.5x ceiling on every terrain (docs/experiments.md). Inside the bounds it is zero, so
     # it changes no optimum, only where the search can go. The bounds come from the task (LocoEnv.action_bounds).
     action_bound_weight: float = 0.0
     # How the update reads the rollout (CRAPPO): the critic's values in one pass over the whole rollout after

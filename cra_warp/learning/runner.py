@@ -6,7 +6,7 @@
 - one compact progress line per iteration (iteration, env-steps/s, reward, episode length, InfoNCE accuracy, ETA)
   instead of rsl-rl's 40-line block; everything still goes to TensorBoard through rsl-rl's logger.
 The symmetry loss's mirror maps and the action bound loss's bounds come from the task (envs.checkpoints.make_runner
-builds the runner with them).
+hands them over as ``task_args``).
 """
 
 from __future__ import annotations
@@ -24,17 +24,13 @@ from rsl_rl.runners import OnPolicyRunner
 
 class CraRunner(OnPolicyRunner):
     def __init__(self, env, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", quiet: bool = False,
-                 run_info: dict | None = None, mirror: dict | None = None,
-                 action_bounds: list[float] | None = None):
+                 run_info: dict | None = None, task_args: dict | None = None):
         self._quiet = quiet
         self.run_info = run_info or {}  # stored in every checkpoint: what play/export need to rebuild the env
         self.history: list[dict] = []   # one record per iteration: what the progress line shows
         self._t0 = time.time()
-        alg = train_cfg.get("algorithm", {})
-        if alg.get("symmetry_weight") and mirror is not None:  # the task's mirror maps (envs.checkpoints.make_runner)
-            train_cfg = {**train_cfg, "algorithm": {**alg, "mirror": mirror}}
-        if alg.get("action_bound_weight") and action_bounds is not None:  # the task's clip per action
-            train_cfg = {**train_cfg, "algorithm": {**train_cfg["algorithm"], "action_bounds": list(action_bounds)}}
+        if task_args:  # what the task hands the algorithm (envs.checkpoints.make_runner): mirror maps, action bounds
+            train_cfg = {**train_cfg, "algorithm": {**train_cfg.get("algorithm", {}), **task_args}}
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         log = self.logger.log
 

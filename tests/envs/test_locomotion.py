@@ -363,7 +363,7 @@ def test_actions_are_clipped_to_the_bounds_the_learner_is_told():
     cfg = LocoConfig(num_envs=2, device=DEVICE, obs=ObsConfig(noise=False))
     cfg.gait.alpha, cfg.gait.beta_scale = 5.0, 0.1
     e = LocoEnv(cfg)
-    assert e.action_bounds == [cfg.clip_joint_actions] * J + [1.0] * 3
+    assert e.action_bounds.tolist() == [cfg.clip_joint_actions] * J + [1.0] * 3
     a = torch.full((2, e.num_actions), 50.0, device=e.device)
     a[1] = -50.0
     e.step(a)
@@ -371,7 +371,7 @@ def test_actions_are_clipped_to_the_bounds_the_learner_is_told():
     assert torch.equal(e.actions[:, J:], torch.tensor([[1.0] * 3, [-1.0] * 3], device=e.device))
     assert torch.allclose(e.clock.phase, torch.tensor([1.5, 0.5], device=e.device) * e.dt, atol=1e-6)
     free = LocoEnv(LocoConfig(num_envs=1, device=DEVICE, variant="clock_free", obs=ObsConfig(noise=False)))
-    assert free.action_bounds == [cfg.clip_joint_actions] * J
+    assert free.action_bounds.tolist() == [cfg.clip_joint_actions] * J
 
 
 def test_command_sampling_ranges_standing_share_and_minimum_speed(env):
