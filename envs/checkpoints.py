@@ -9,6 +9,15 @@ import dataclasses
 
 from cra_warp.learning.runner import CraRunner
 
+# LocoConfig fields added after runs were stored, with the value those runs trained with: a stored run rebuilt or
+# compared on resume is the task it was (its env config as stored_env gives it)
+PREDATED = {"fall_ground": "base"}
+
+
+def stored_env(stored: dict) -> dict:
+    """A run's stored env config (``stored["env"]``), the fields it predates filled in from PREDATED."""
+    return {**PREDATED, **stored["env"]}
+
 
 def make_runner(env, train_cfg: dict, **kw) -> CraRunner:
     """CraRunner for the task ``env``, with the task's mirror maps when the learner uses the symmetry loss and its
@@ -46,7 +55,7 @@ def runner_for_checkpoint(path, num_envs: int = 1, device: str = "cpu", sim: str
     if stored is None:  # runs store their configuration since before the first shipped policy
         raise CheckpointError(f"{path}: the checkpoint holds no run configuration (written before runs stored it)")
     try:
-        env_cfg = from_data(LocoConfig, stored["env"])
+        env_cfg = from_data(LocoConfig, stored_env(stored))
         learner = from_data(LearnerConfig, stored["learner"])
         learner.contrast = dataclasses.replace(learner.contrast,
                                                target_actor_obs=stored_target_actor_obs(stored["learner"]))

@@ -229,10 +229,15 @@ class LocoEnv(VecEnv):
         self.contact = self.foot_forces[..., 2] > self.cfg.rewards.contact_threshold
         self.first_contact = self.contact & ~self.last_contact
         self.sole_corner_height = self.sole_corners[..., 2] - self.ground.heights(self.sole_corners[..., :2])
-        self.sole_height = self.sole_centres[..., 2] - self.ground.heights(self.sole_centres[..., :2])
+        ground_under_soles = self.ground.heights(self.sole_centres[..., :2])                       # [N, F]
+        self.sole_height = self.sole_centres[..., 2] - ground_under_soles
         rel = self.sole_centres - w.root_pos.unsqueeze(1)
         self.feet_pos_yaw = quat_rotate_inv(yaw_quat(yaw(q)).unsqueeze(1), rel)
         self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
+        # the ground a fall is measured from (LocoConfig.fall_ground): on a stair the pelvis passes over the next
+        # riser while the stance sole is a rise below it
+        self.fall_ground = (torch.minimum(self.ground_under_base, ground_under_soles.amin(-1))
+                            if self.cfg.fall_ground == "lowest" else self.ground_under_base)
 
     def _advance_history(self):
         """Per-step memory, advanced once per step after rewards and terminations read it (buffers in place: see
@@ -246,7 +251,7 @@ class LocoEnv(VecEnv):
 
     def _terminations(self):
         nonfinite = ~(torch.isfinite(self.world.joint_q).all(-1) & torch.isfinite(self.world.joint_qd).all(-1))
-        low = self.root_pos[:, 2] - self.ground_under_base < self.cfg.fall_height
+        low = self.root_pos[:, 2] - self.fall_ground < self.cfg.fall_height
         tilted = self.projected_gravity[:, 2] > self.cfg.fall_gravity_z
         return (low | tilted) & ~nonfinite, nonfinite
 

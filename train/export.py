@@ -95,9 +95,10 @@ def deploy_metadata(env) -> dict:
         "frames": {"base": "the pelvis link (IMU frame)", "world": "z up", "quaternions": "xyzw in the sim"},
         "bodies": {"base": robot.base_link, "feet": list(robot.foot_links)},
         "base_height": robot.base_height,
-        "termination": {"fall_height": cfg.fall_height, "fall_gravity_z": cfg.fall_gravity_z,
+        "termination": {"fall_height": cfg.fall_height, "fall_gravity_z": cfg.fall_gravity_z, "ground": cfg.fall_ground,
                         "note": "training ended an episode when the pelvis was less than fall_height [m] above the "
-                                "ground under it or the base-frame gravity z rose above fall_gravity_z"},
+                                "ground ('lowest': the lowest ground under the pelvis or a sole; 'base': under the "
+                                "pelvis) or the base-frame gravity z rose above fall_gravity_z"},
         "variant": cfg.variant,
     }
 

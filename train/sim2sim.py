@@ -231,7 +231,8 @@ class Trial:
                     errors.append(abs(c * d.qvel[0] + s * d.qvel[1] - speed))
                 if renderer is not None and k % every == 0:
                     frames.append(self._frame(renderer, camera, speed, t, fell_at))
-                height = d.qpos[2] - self.terrain.height(d.qpos[0])
+                # the pelvis above the lowest ground under it or a foot (the evaluators' fall rule, LocoConfig.fall_ground)
+                height = d.qpos[2] - min(self.terrain.height(x) for x in (d.qpos[0], *d.xpos[self.feet, 0]))
                 if height < self.fall_height or gravity[2] > self.fall_gz or not np.isfinite(d.qpos).all():
                     fell_at = t
                     break

@@ -209,7 +209,7 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
     from cra_warp.config_io import flatten, to_data
     from cra_warp.learning.checkpoint import read_checkpoint
     from cra_warp.learning.config import stored_target_actor_obs
-    from envs.checkpoints import check_against_today
+    from envs.checkpoints import check_against_today, stored_env
 
     stored = (read_checkpoint(path).get("infos") or {}).get("config")
     if stored is None:
@@ -225,7 +225,7 @@ def check_resume(path: Path, env, learner, rank: int, fork: bool = False) -> Non
         print(f"cra-train: resuming {path} with PPO settings changed from its own: {changed}", file=sys.stderr)
     # the task as it was: a run resumed under another recipe (or one written before recipes, on the paper's
     # defaults) would silently train on changed rewards or clock; said in one line, the CLI's value is used
-    then_env, now_env = flatten(stored.get("env", {})), flatten(to_data(env.cfg))
+    then_env, now_env = flatten(stored_env(stored) if "env" in stored else {}), flatten(to_data(env.cfg))
     moved = {k: f"{then_env[k]} -> {v}" for k, v in now_env.items()
              if k in then_env and then_env[k] != v and not k.startswith(_RUN_FIELDS)}
     if moved and rank == 0 and not fork:

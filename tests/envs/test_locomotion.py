@@ -111,6 +111,40 @@ def test_time_outs_and_falls(env):
     assert env.episode_length_buf[1] == 0 and env.root_pos[2, 2] > 0.8  # both reset to a stand
 
 
+def test_a_robot_whose_pelvis_is_past_a_35_cm_riser_has_not_fallen_but_a_low_one_has():
+    """On the course's 35 cm flight: soles on the rim, legs swung back so the pelvis (0.78 m above the rim) is
+    over the first step. Measured from the ground under the pelvis (the old rule) it is 0.43 m up, under the
+    fall height: "lowest" measures from the rim under the soles and keeps it; lowered to 0.35 m it has fallen."""
+    from cra_warp.sim.config import FREE_Q
+    from cra_warp.terrain.course import EvalCourseConfig
+
+    env = LocoEnv(LocoConfig(num_envs=7, device=DEVICE, terrain="eval", obs=ObsConfig(noise=False),
+                             course=EvalCourseConfig(kinds=("stairs_ascend",)),
+                             randomization=DomainRandConfig(enabled=False)))
+    env.reset_idx(torch.arange(7, device=env.device))
+    top, rim = 6, float(env.ground.deployment.start[6, 2])
+    q = env.world.joint_q[top].clone()
+    for side in ("Left", "Right"):
+        q[FREE_Q + env.robot.joint_names.index(f"hipPitch_{side}")] = 0.35   # legs back
+    q[0] += 0.30
+
+    def fallen(pelvis_above_rim: float, rule: str) -> bool:
+        q[2] = rim + pelvis_above_rim
+        env.world.reset(torch.tensor([top], device=env.device), joint_q=q.unsqueeze(0))
+        env.cfg.fall_ground = rule
+        env._refresh()
+        return bool(env._terminations()[0][top])
+
+    try:
+        assert not fallen(0.78, "lowest") and fallen(0.78, "base")
+        # the pose is what the docstring says: the pelvis over the 35 cm step, both soles behind its riser
+        assert float(env.ground_under_base[top]) == pytest.approx(rim + 0.35, abs=1e-3)
+        assert (env.sole_height - (env.sole_centres[..., 2] - rim)).abs()[top].max() < 1e-3
+        assert fallen(0.35, "lowest") and fallen(0.35, "base")
+    finally:
+        env.cfg.fall_ground = "lowest"
+
+
 def test_nan_in_one_world_resets_that_world_only(env):
     env.reset_idx(torch.arange(env.num_envs, device=env.device))
     for _ in range(3):
