@@ -19,6 +19,20 @@ def stored_env(stored: dict) -> dict:
     return {**PREDATED, **stored["env"]}
 
 
+def predated_overrides(path, given: tuple[str, ...]) -> tuple[str, ...]:
+    """--override items that keep a run resumed from checkpoint ``path`` on the task it trained with: the PREDATED
+    fields its stored env lacks and the CLI's --override items ``given`` do not set."""
+    import json
+
+    from cra_warp.learning.checkpoint import read_checkpoint
+
+    env = ((read_checkpoint(path).get("infos") or {}).get("config") or {}).get("env")
+    if env is None:
+        return ()
+    named = {item.partition("=")[0] for item in given}
+    return tuple(f"{k}={json.dumps(v)}" for k, v in PREDATED.items() if k not in env and k not in named)
+
+
 def make_runner(env, train_cfg: dict, **kw) -> CraRunner:
     """CraRunner for the task ``env``, with the task's mirror maps when the learner uses the symmetry loss and its
     action clip when it uses the action bound loss (``kw``: CraRunner's log_dir, device, quiet, run_info)."""

@@ -17,6 +17,19 @@ from pathlib import Path
 import torch
 
 STAND = "stand"  # the name of the scripted-stand floor in reports
+# Every policy is judged by one fall rule, whatever it trained with (LocoConfig.fall_ground): cra-eval's records say
+# which. Records without "fall_ground" were judged by "base", which ended robots at stair risers: crouched ones from
+# 15 cm, upright ones from 25-30 cm (docs/experiments.md).
+FALL_GROUND = "lowest"
+
+
+def judged_today(path: Path) -> bool:
+    """Whether cra-eval records at ``path`` were judged by today's fall rule (FALL_GROUND): a study re-evaluates
+    records that were not."""
+    import json
+
+    records = json.loads(Path(path).read_text())
+    return bool(records) and all(r.get("fall_ground") == FALL_GROUND for r in records)
 
 
 def wilson(successes: float, n: int, z: float = 1.96) -> tuple[float, float] | None:

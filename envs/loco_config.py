@@ -12,8 +12,8 @@ Where the paper is silent we take what the legged-locomotion field does; every s
   (``only_positive_rewards``, as legged_gym and the vendor's config do): with Table I's penalties a
   young policy's step reward is negative, and without the clip ending the episode early (falling) pays.
 - Episodes last 20 s; a robot has fallen when its pelvis is less than fall_height above the lowest ground under it
-  or under a sole (``fall_ground``) or its base is tilted by more than ~60 deg (gravity z in the base frame above
-  -0.5).
+  or under a sole (``fall_ground``), or less than SIT_FRACTION of it above the ground under it (seated), or its base
+  is tilted by more than ~60 deg (gravity z in the base frame above -0.5).
 - The robot is a name (``robot``) in the registry robots.ROBOTS: its RobotConfig (joints, drives, limits) and its
   LocoRobotConfig (the joint groups the rewards and the clock read, the scripted stand's gains, and the numbers at
   its size: base height and clearance targets, feet distance, contact force threshold, fall height). A field of
@@ -51,6 +51,11 @@ from robots import robot_by_name
 # the gait clock a method runs (envs/methods.py); stored as LocoConfig.variant, the name every config.json uses
 ClockMode = Literal["adaptive", "fixed_cycle", "clock_free"]
 CLOCK_MODES: tuple[str, ...] = ("adaptive", "fixed_cycle", "clock_free")
+
+
+# Under fall_ground "lowest" a pelvis less than this fraction of the fall height above the ground under it has fallen
+# too (sat down; the lowest ground may be steps below it): upright on a 35 cm stair it is 0.43 m up, seated ~0.1 m.
+SIT_FRACTION = 0.5
 
 
 @dataclass

@@ -23,7 +23,7 @@ from cra_warp.sim import make_world
 from envs import observations as obs_layout
 from envs.difficulty import Difficulty
 from envs.ground import Ground
-from envs.loco_config import LocoConfig
+from envs.loco_config import SIT_FRACTION, LocoConfig
 from envs.rewards import TERMS
 from robots import robot_by_name
 
@@ -236,8 +236,8 @@ class LocoEnv(VecEnv):
         self.ground_under_base = self.ground.heights(w.root_pos[:, :2])
         # the ground a fall is measured from (LocoConfig.fall_ground): on a stair the pelvis passes over the next
         # riser while the stance sole is a rise below it
-        self.fall_ground = (torch.minimum(self.ground_under_base, ground_under_soles.amin(-1))
-                            if self.cfg.fall_ground == "lowest" else self.ground_under_base)
+        self.fall_floor = (torch.minimum(self.ground_under_base, ground_under_soles.amin(-1))
+                           if self.cfg.fall_ground == "lowest" else self.ground_under_base)
 
     def _advance_history(self):
         """Per-step memory, advanced once per step after rewards and terminations read it (buffers in place: see
@@ -251,7 +251,10 @@ class LocoEnv(VecEnv):
 
     def _terminations(self):
         nonfinite = ~(torch.isfinite(self.world.joint_q).all(-1) & torch.isfinite(self.world.joint_qd).all(-1))
-        low = self.root_pos[:, 2] - self.fall_ground < self.cfg.fall_height
+        low = self.root_pos[:, 2] - self.fall_floor < self.cfg.fall_height
+        if self.cfg.fall_ground == "lowest":
+            # and sitting: a pelvis on a stair with the feet some steps below is far above the lowest ground
+            low |= self.root_pos[:, 2] - self.ground_under_base < SIT_FRACTION * self.cfg.fall_height
         tilted = self.projected_gravity[:, 2] > self.cfg.fall_gravity_z
         return (low | tilted) & ~nonfinite, nonfinite
 

@@ -42,8 +42,8 @@ from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
 from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args, quiet_stdout
-from envs.evaluation import (STAND, course_records, evaluate, flat_trial, method_of, seed_means, with_interval,
-                             write_csv)
+from envs.evaluation import (FALL_GROUND, STAND, course_records, evaluate, flat_trial, method_of, seed_means,
+                             with_interval, write_csv)
 
 @dataclass
 class EvalArgs:
@@ -76,9 +76,6 @@ PAPER_SPEEDS = (0.15, 0.3, 0.5, 0.75, 1.0)
 PAPER_SWEEP_ROBOTS = 200                             # robots per (kind, level), every kind
 PAPER_ABLATION = {"speed": 0.15, "kinds": ("stairs_ascend", "slope_ascend")}
 DEFAULT_SPEEDS, DEFAULT_ROBOTS = (0.5,), 10          # without the protocol
-# Every policy is judged by one fall rule, whatever it trained with (LocoConfig.fall_ground); records say which.
-# Records without "fall_ground" were judged by "base", which ended upright robots on stairs of 25 cm and more.
-FALL_GROUND = "lowest"
 
 
 def _policies(a: EvalArgs):

@@ -196,9 +196,12 @@ def _eval_json(a: GridArgs, job: dict) -> Path:
 
 
 def _eval_cmd(a: GridArgs, job: dict) -> list[str] | None:
-    """cra-eval --protocol paper of the run's final checkpoint, None while its JSON is newer than that checkpoint."""
+    """cra-eval --protocol paper of the run's final checkpoint, None while its JSON is newer than that checkpoint and
+    judged by today's fall rule."""
+    from envs.evaluation import judged_today
+
     ckpt, out = _newest(job["run_dir"])[1], _eval_json(a, job)
-    if out.is_file() and ckpt.stat().st_mtime <= out.stat().st_mtime:
+    if out.is_file() and ckpt.stat().st_mtime <= out.stat().st_mtime and judged_today(out):
         return None
     out.parent.mkdir(parents=True, exist_ok=True)
     return [sys.executable, "-m", "train.evaluate", str(ckpt), "--protocol", "paper", "--json", str(out),

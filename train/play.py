@@ -61,11 +61,13 @@ def run(a: PlayArgs) -> dict:
 
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.sim import WorldConfig
+    from envs.evaluation import FALL_GROUND
     from envs.loco_config import DomainRandConfig, LocoConfig
     from envs.locomotion import LocoEnv
 
     keep_freed_memory()
-    overrides = {"terrain": a.task} if a.task else {}
+    # falls are counted by the evaluators' rule, whatever the policy trained with
+    overrides = {"fall_ground": FALL_GROUND, **({"terrain": a.task} if a.task else {})}
     if a.nominal:
         overrides["randomization"] = DomainRandConfig(enabled=False)
     # the viewer draws static shapes once: every world holds the whole course, not a window

@@ -183,8 +183,11 @@ class Trial:
         self.substeps = round(policy.control_dt / model.opt.timestep)
         if self.substeps < 1 or abs(self.substeps * model.opt.timestep - policy.control_dt) > 1e-9:
             raise UsageError(f"--physics-dt {model.opt.timestep} must divide the control period {policy.control_dt}")
+        from envs.loco_config import SIT_FRACTION
+
         term = spec_json.get("termination", {"fall_height": 0.45, "fall_gravity_z": -0.5})
         self.fall_height, self.fall_gz = term["fall_height"], term["fall_gravity_z"]
+        self.sit_height = SIT_FRACTION * self.fall_height
         self.base_height = spec_json.get("base_height", 0.9)
         self.base_body = int(model.jnt_bodyid[0])
         feet = spec_json.get("bodies", {}).get("feet", ["toeLeft", "toeRight"])
@@ -231,9 +234,11 @@ class Trial:
                     errors.append(abs(c * d.qvel[0] + s * d.qvel[1] - speed))
                 if renderer is not None and k % every == 0:
                     frames.append(self._frame(renderer, camera, speed, t, fell_at))
-                # the pelvis above the lowest ground under it or a foot (the evaluators' fall rule, LocoConfig.fall_ground)
+                # the pelvis above the lowest ground under it or a foot (the evaluators' fall rule, LocoConfig.fall_ground;
+                # a foot body's origin stands in for its sole centre, a few cm away), or sat down (SIT_FRACTION)
                 height = d.qpos[2] - min(self.terrain.height(x) for x in (d.qpos[0], *d.xpos[self.feet, 0]))
-                if height < self.fall_height or gravity[2] > self.fall_gz or not np.isfinite(d.qpos).all():
+                seated = d.qpos[2] - self.terrain.height(d.qpos[0]) < self.sit_height
+                if height < self.fall_height or seated or gravity[2] > self.fall_gz or not np.isfinite(d.qpos).all():
                     fell_at = t
                     break
         finally:

@@ -243,6 +243,8 @@ def _fork_paths(a: GridArgs, label: str, seed: int) -> tuple[Path, Path, Path]:
 
 def fork_step(a: GridArgs, method: str, seed: int) -> Step | None:
     """The run's next step: train (from the walker, or resume), evaluate, probe; None when all are done."""
+    from envs.evaluation import judged_today
+
     run_dir, ev, pr = _fork_paths(a, method, seed)
     newest = _newest(run_dir)
     done = newest[0] + 1 if newest else 0
@@ -251,7 +253,7 @@ def fork_step(a: GridArgs, method: str, seed: int) -> Step | None:
         cmd += ["--resume", str(run_dir)] if newest else ["--init", str(a.walker)]
         return Step("training", cmd, run_dir / "train.log")
     ckpt = newest[1]
-    if _stale(ev, ckpt):
+    if _stale(ev, ckpt) or not judged_today(ev):
         extra = shlex.split(a.eval_args) if a.eval_args else FORK["eval"]
         return Step("evaluating", [sys.executable, "-m", "train.evaluate", str(ckpt), "--protocol", "paper",
                                    "--json", str(ev), "--device", SCALES[a.scale]["device"], *extra],

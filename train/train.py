@@ -276,6 +276,10 @@ def run(a: TrainArgs):
     keep_freed_memory()  # batched CPU tensors page-fault on every allocation otherwise (see host_memory)
     if a.recipe is None:  # run() called without validate(): the same choice
         a = dataclasses.replace(a, recipe=stored_recipe(a.resume) if a.resume is not None else DEFAULT_RECIPE)
+    if a.resume is not None:  # it goes on with the task it trained on, fields added since included
+        from envs.checkpoints import predated_overrides
+
+        a = dataclasses.replace(a, override=(*a.override, *predated_overrides(a.resume, a.override)))
     rank = int(os.getenv("RANK", "0"))
     if a.device.startswith("cuda") and int(os.getenv("WORLD_SIZE", "1")) > 1:  # torchrun: one GPU per rank
         a = dataclasses.replace(a, device=f"cuda:{os.getenv('LOCAL_RANK', '0')}")

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from envs.evaluation import FALL_GROUND
 from tests.conftest import one_line_error
 from train import grid, studies
 
@@ -52,7 +53,9 @@ def test_fork_plan_starts_every_arm_from_the_walker_with_one_budget(tmp_path):
     assert step.what == "evaluating" and step.cmd[3] == str(final) and _flag(step.cmd, "--protocol") == "paper"
     assert _flag(step.cmd, "--ablation-robots") == "50"
     (tmp_path / "eval").mkdir()
-    (tmp_path / "eval" / "dwl-s1.json").write_text("[]")
+    (tmp_path / "eval" / "dwl-s1.json").write_text(json.dumps([{"success_rate": 0.5}]))  # judged by the old rule
+    assert studies.fork_step(a, "dwl", 1).what == "evaluating"
+    (tmp_path / "eval" / "dwl-s1.json").write_text(json.dumps([{"success_rate": 0.5, "fall_ground": FALL_GROUND}]))
     step = studies.fork_step(a, "dwl", 1)
     assert step.what == "probing" and step.cmd[2] == "tools.probe" and step.cmd[3] == str(final)
     (tmp_path / "eval" / "dwl-s1.probe.json").write_text("[]")

@@ -120,7 +120,7 @@ def test_data_parallel_on_cpu_with_torchrun(tmp_path):
 def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, tmp_path, capsys):
     """config.json and every checkpoint hold the resolved configuration; play/eval/export rebuild from it, not from
     today's defaults; a checkpoint whose observation layout differs from today's code is refused in one line."""
-    from envs.checkpoints import runner_for_checkpoint
+    from envs.checkpoints import predated_overrides, runner_for_checkpoint
 
     first, _ = trained
     stored = json.loads((first / "config.json").read_text())
@@ -138,11 +138,15 @@ def test_the_run_stores_its_whole_configuration_and_is_rebuilt_from_it(trained, 
     ckpt["infos"]["config"]["learner"]["ppo"]["gamma"] = 0.98
     ckpt["infos"]["config"]["env"]["fall_height"] = 0.4          # not the robot's number: the stored one stands
     del ckpt["infos"]["config"]["env"]["robot"]                  # as runs stored before the field: Adam Lite
+    del ckpt["infos"]["config"]["env"]["fall_ground"]            # ... and before this one: the old fall rule
     odd = tmp_path / "model_odd.pt"
     torch.save(ckpt, odd)
     runner, env = runner_for_checkpoint(odd, num_envs=2)
     assert env.cfg.obs.yaw_rate_filter_tau == 0.35 and runner.alg.gamma == 0.98 and env.num_envs == 2
-    assert env.cfg.fall_height == 0.4 and env.cfg.robot == "adam_lite"
+    assert env.cfg.fall_height == 0.4 and env.cfg.robot == "adam_lite" and env.cfg.fall_ground == "base"
+    # resumed, it goes on with that rule unless --override names it
+    assert predated_overrides(odd, ()) == ('fall_ground="base"',)
+    assert predated_overrides(odd, ('fall_ground="lowest"',)) == () == predated_overrides(first / "model_1.pt", ())
     # an actor layout of another version of the code
     ckpt["infos"]["config"]["layout"]["actor"]["gait_phase"] = [80, 82]
     torch.save(ckpt, odd)
