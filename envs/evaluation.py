@@ -64,13 +64,18 @@ class Tally:
     def __init__(self, num: int, device):
         self.fell = torch.zeros(num, dtype=torch.bool, device=device)
         self.succeeded = torch.zeros(num, dtype=torch.bool, device=device)
+        self.fell_at = torch.full((num,), math.nan, device=device)   # [m] how far along its way a robot fell
         self.gait_sums = torch.zeros(num, len(self.GAIT), device=device)
         self.gait_steps = torch.zeros(num, device=device)
 
-    def update(self, reached: torch.Tensor, fell: torch.Tensor, active: torch.Tensor):
-        """reached / fell [n] bool this step; only ``active`` robots (trial still running) count."""
+    def update(self, reached: torch.Tensor, fell: torch.Tensor, active: torch.Tensor, way: torch.Tensor | None = None):
+        """reached / fell [n] bool this step; only ``active`` robots (trial still running) count. ``way`` [n]: how
+        far along its way [m] each robot was before this step, kept for those that fall now."""
         self.succeeded |= reached & ~self.fell & active
-        self.fell |= fell & active & ~self.succeeded
+        falls = fell & active & ~self.succeeded & ~self.fell
+        self.fell |= falls
+        if way is not None:
+            self.fell_at = torch.where(falls, way, self.fell_at)
 
     def walk(self, env, active: torch.Tensor):
         """Sum this step's gait of the ``active`` robots still on their way: the clock's rate (x the nominal
@@ -120,12 +125,13 @@ def evaluate(env, act, speed: float, on_step=None) -> Tally:
         for k in range(int(steps.max())):
             # observed once at the start; later the step's own observation shows the steered command
             env.hold_commands(forward, dep.heading_to_target(env.root_pos), refresh=k == 0, steer=True)
+            way = dep.progress(env.root_pos)  # before the step: a robot that falls in it is respawned inside
             _, _, d, extras = env.step(act(env.get_observations(), dones))
             dones = d.bool()
             fell = dones & ~extras["time_outs"]
             # a fallen robot was respawned inside step(): its position no longer tells where it got to
             tally.walk(env, (k < steps) & ~dones)  # before the update: the step that ends a trial counts
-            tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps)
+            tally.update(dep.reached(env.root_pos) & ~fell, fell, k < steps, way)
             if on_step is not None:
                 on_step(k, tally)
             # a success or a fall is final: once every robot has one or is past its trial, the rest changes nothing
@@ -194,9 +200,14 @@ def _turning_heading(env, yaw_rate: float) -> torch.Tensor:
     return yaw(env.world.root_quat) + yaw_rate / env.cfg.commands.heading_gain
 
 
+def _median(x: torch.Tensor) -> float | None:
+    return float(x.median()) if len(x) else None
+
+
 def course_records(env, tally: Tally, policy: str, speed: float, robots_per_level: int) -> list[dict]:
     """One record per (kind, level) of a course deployment's ``tally``: success and fall rate with the success's
-    interval, the level's difficulty and how the robots walked on their way."""
+    interval, the level's difficulty, how far along their way the robots that fell did so (the median, m from the
+    start towards the target: on stairs, which riser) and how the robots walked on their way."""
     c, dep = env.ground.course, env.ground.deployment
     success = c.success_rate(dep, tally.succeeded)
     falls = c.success_rate(dep, tally.fell)
@@ -208,6 +219,7 @@ def course_records(env, tally: Tally, policy: str, speed: float, robots_per_leve
                 "policy": policy, "speed": speed, "kind": kind, "level": lv,
                 "difficulty": float(c.difficulty[k, lv]), "robots": robots_per_level,
                 "success_rate": float(success[k, lv]), "fall_rate": float(falls[k, lv]),
+                "fell_at_m": _median(tally.fell_at[cell & tally.fell]),
                 **tally.gait(cell, env.cfg.uses_clock)}))
     return records
 

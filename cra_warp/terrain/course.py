@@ -59,6 +59,11 @@ class Deployment(NamedTuple):
         """[n] bool: base position pos [n, 3] within ``radius`` (xy) of its target."""
         return (pos[:, :2] - self.target[:, :2]).norm(dim=-1) < self.radius
 
+    def progress(self, pos: torch.Tensor) -> torch.Tensor:
+        """[n] how far [m] base positions pos [n, 3] have come towards their targets: the start's distance to the
+        target (xy) less theirs."""
+        return ((self.target[:, :2] - self.start[:, :2]).norm(dim=-1) - (self.target[:, :2] - pos[:, :2]).norm(dim=-1))
+
     def heading_to_target(self, pos: torch.Tensor) -> torch.Tensor:
         """[n] world heading [rad] from base position pos [n, 3] to its target (what a robot is steered at)."""
         to_target = self.target[:, :2] - pos[:, :2]

@@ -18,6 +18,16 @@ def test_tally_success_needs_reaching_before_any_fall():
     assert t.fell.tolist() == [True, False, False, False]
 
 
+def test_tally_keeps_how_far_along_its_way_a_robot_first_fell():
+    t = evaluation.Tally(3, "cpu")
+    on = torch.ones(3, dtype=torch.bool)
+    t.update(torch.zeros(3, dtype=torch.bool), torch.tensor([1, 0, 0]).bool(), on, torch.tensor([0.3, 0.5, 0.7]))
+    t.update(torch.tensor([0, 1, 0]).bool(), torch.tensor([1, 0, 1]).bool(), on, torch.tensor([0.0, 0.9, 1.1]))
+    t.update(torch.zeros(3, dtype=torch.bool), torch.tensor([0, 1, 0]).bool(), on, torch.tensor([0.0, 2.0, 0.0]))
+    # robot 0 where it first fell, robot 2 where it fell, robot 1 reached first: its later fall is not kept
+    assert t.fell_at[[0, 2]].tolist() == pytest.approx([0.3, 1.1]) and t.fell_at[1].isnan()
+
+
 @pytest.fixture(scope="module")
 def course_env():
     """One robot per level on the stair ascent and the slope descent of the evaluation course."""
@@ -38,6 +48,10 @@ def test_robots_spawn_at_their_starts_facing_their_targets(course_env):
     assert torch.allclose(height, torch.full_like(height, env.robot.base_height + 0.01), atol=0.02)
     to_target = dep.target[:, :2] - dep.start[:, :2]
     assert torch.allclose(yaw(env.world.root_quat), torch.atan2(to_target[:, 1], to_target[:, 0]), atol=1e-3)
+    # progress: none at the start, the whole way at the target, half of it halfway
+    assert dep.progress(dep.start).abs().max() < 1e-5
+    assert torch.allclose(dep.progress(dep.target), to_target.norm(dim=-1))
+    assert torch.allclose(dep.progress((dep.start + dep.target) / 2), to_target.norm(dim=-1) / 2)
 
 
 def test_a_standing_robot_reaches_only_a_target_it_stands_on(course_env):
@@ -208,3 +222,5 @@ def test_the_course_records_how_a_robot_walks_on_its_way(course_env):
     assert abs(gait["pitch_deg"]) < 10.0
     assert tally.gait(every, uses_clock=False)["gait_rate"] is None
     assert all(v is None for v in tally.gait(torch.zeros_like(every)).values())
+    records = evaluation.course_records(env, tally, "stand", 8.0, 1)
+    assert all(r["fell_at_m"] is None for r in records if r["fall_rate"] == 0)
