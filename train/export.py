@@ -31,6 +31,8 @@ from cra_warp.cli import UsageError, parse_args
 def deploy_metadata(env) -> dict:
     """Everything a deploy program needs besides the network to rebuild the observation, the gait clock and the PD
     loop, without reading our code (cra_warp.learning.export does not import the task, so the task says it here)."""
+    from envs.loco_config import SIT_FRACTION
+
     robot, loco, cfg, o, w = env.robot, env.loco_robot, env.cfg, env.cfg.obs, env.cfg.world
     gait = dataclasses.asdict(cfg.gait) if cfg.uses_clock else None
     observation = {
@@ -96,9 +98,11 @@ def deploy_metadata(env) -> dict:
         "bodies": {"base": robot.base_link, "feet": list(robot.foot_links)},
         "base_height": robot.base_height,
         "termination": {"fall_height": cfg.fall_height, "fall_gravity_z": cfg.fall_gravity_z, "ground": cfg.fall_ground,
+                        **({"sit_fraction": SIT_FRACTION} if cfg.fall_ground == "lowest" else {}),
                         "note": "training ended an episode when the pelvis was less than fall_height [m] above the "
-                                "ground ('lowest': the lowest ground under the pelvis or a sole; 'base': under the "
-                                "pelvis) or the base-frame gravity z rose above fall_gravity_z"},
+                                "ground ('lowest': the lowest ground under the pelvis or a sole, or less than "
+                                "sit_fraction x fall_height above the ground under the pelvis, seated; 'base': the "
+                                "ground under the pelvis) or the base-frame gravity z rose above fall_gravity_z"},
         "variant": cfg.variant,
     }
 

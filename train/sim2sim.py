@@ -187,7 +187,7 @@ class Trial:
 
         term = spec_json.get("termination", {"fall_height": 0.45, "fall_gravity_z": -0.5})
         self.fall_height, self.fall_gz = term["fall_height"], term["fall_gravity_z"]
-        self.sit_height = SIT_FRACTION * self.fall_height
+        self.sit_height = SIT_FRACTION * self.fall_height   # judged as cra-eval does, whatever the export trained with
         self.base_height = spec_json.get("base_height", 0.9)
         self.base_body = int(model.jnt_bodyid[0])
         feet = spec_json.get("bodies", {}).get("feet", ["toeLeft", "toeRight"])
