@@ -23,6 +23,15 @@ STAND = "stand"  # the name of the scripted-stand floor in reports
 FALL_GROUND = "lowest"
 
 
+def judged(**overrides) -> dict:
+    """LocoConfig overrides of an env that judges a policy (``overrides`` added): the nominal robot (no physical
+    randomisation, pushes or shoves), no time-outs (the trial clock is the evaluator's) and FALL_GROUND."""
+    from envs.loco_config import DomainRandConfig
+
+    return dict(randomization=DomainRandConfig(enabled=False), episode_length_s=1e6, fall_ground=FALL_GROUND,
+                **overrides)
+
+
 def judged_today(path: Path) -> bool:
     """Whether cra-eval records at ``path`` were judged by today's fall rule (FALL_GROUND): a study re-evaluates
     records that were not."""

@@ -213,15 +213,12 @@ def record_stairs(checkpoint: Path, robots: int = 5, speed: float = 0.15, sim: s
     from cra_warp.terrain.course import EvalCourseConfig
     from cra_warp.cli import quiet_stdout
     from envs.checkpoints import runner_for_checkpoint
-    from envs.evaluation import FALL_GROUND, evaluate
-    from envs.loco_config import DomainRandConfig
+    from envs.evaluation import evaluate, judged
 
     course = EvalCourseConfig(kinds=("stairs_ascend",))
     with quiet_stdout():  # rsl-rl's model dumps
         runner, env = runner_for_checkpoint(checkpoint, num_envs=course.num_levels * robots, sim=sim,
-                                            terrain="eval", course=course,
-                                            randomization=DomainRandConfig(enabled=False), episode_length_s=1e6,
-                                            fall_ground=FALL_GROUND)
+                                            **judged(terrain="eval", course=course))
     policy = runner.get_inference_policy("cpu")
     names = env.robot.joint_names
     legs = [i for i, n in enumerate(names) if n.split("_")[0] in LEG_JOINTS]

@@ -109,18 +109,16 @@ def probe(data: dict[str, torch.Tensor], lam: float, seed: int) -> dict[str, dic
 
 def run(a: ProbeArgs) -> list[dict]:
     from cra_warp.terrain.course import EVAL_KINDS, EvalCourseConfig
-    from envs.loco_config import DomainRandConfig
     from envs.checkpoints import runner_for_checkpoint
-    from envs.evaluation import FALL_GROUND
+    from envs.evaluation import judged
 
     course = EvalCourseConfig(kinds=EVAL_KINDS)
     num_envs = len(course.kinds) * course.num_levels * a.robots_per_level
     records = []
     for path in a.checkpoints:
         torch.manual_seed(a.seed)
-        runner, env = runner_for_checkpoint(path, num_envs=num_envs, sim=a.sim, seed=a.seed, terrain="eval",
-                                            course=course, randomization=DomainRandConfig(enabled=False),
-                                            episode_length_s=1e6, fall_ground=FALL_GROUND)
+        runner, env = runner_for_checkpoint(path, num_envs=num_envs, sim=a.sim, seed=a.seed,
+                                            **judged(terrain="eval", course=course))
         if not hasattr(runner.alg.get_policy(), "latent"):
             raise UsageError(f"{path}: its actor keeps no latent m_a to probe")
         r2 = probe(record(runner, env, a), a.ridge, a.seed)

@@ -42,8 +42,8 @@ from tyro.conf import Positional
 
 from cra_warp.atomic_json import write_json
 from cra_warp.cli import Sim, UsageError, check_device, check_sim, parse_args, quiet_stdout
-from envs.evaluation import (FALL_GROUND, STAND, course_records, evaluate, flat_trial, method_of, seed_means,
-                             with_interval, write_csv)
+from envs.evaluation import (FALL_GROUND, STAND, course_records, evaluate, flat_trial, judged, method_of,
+                             seed_means, with_interval, write_csv)
 
 @dataclass
 class EvalArgs:
@@ -135,7 +135,6 @@ def run(a: EvalArgs) -> list[dict]:
 def _run(a: EvalArgs) -> list[dict]:
     from cra_warp.host_memory import keep_freed_memory
     from cra_warp.terrain.course import EVAL_KINDS, EvalCourseConfig
-    from envs.loco_config import DomainRandConfig
 
     keep_freed_memory()
     if a.trial == "flat":
@@ -145,8 +144,7 @@ def _run(a: EvalArgs) -> list[dict]:
         for name, make in _policies(a):
             for vx, vy, wz in commands:
                 torch.manual_seed(a.seed)
-                env, act = make(a.robots, dict(terrain="flat", randomization=DomainRandConfig(enabled=False),
-                                               episode_length_s=1e6, fall_ground=FALL_GROUND))
+                env, act = make(a.robots, judged(terrain="flat"))
                 top = env.cfg.commands.ang_vel_yaw[1]
                 if abs(wz) > top:
                     raise UsageError(f"--yaw-rates must be within the training range +-{top} rad/s, got {wz}")
@@ -159,10 +157,7 @@ def _run(a: EvalArgs) -> list[dict]:
     for name, make in _policies(a):
         for speed in a.speeds:
             torch.manual_seed(a.seed)
-            overrides = dict(terrain="eval", course=course, randomization=DomainRandConfig(enabled=False),
-                             episode_length_s=1e6,  # no time-outs: the trial clock is the evaluator's
-                             fall_ground=FALL_GROUND)
-            env, act = make(num_envs, overrides)
+            env, act = make(num_envs, judged(terrain="eval", course=course))
             video = _CourseVideo(env, speed, a) if a.video is not None and not records else None
             records += course_records(env, evaluate(env, act, speed, video), name, speed, a.robots_per_level)
             if video is not None:

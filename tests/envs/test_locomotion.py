@@ -136,7 +136,7 @@ def test_a_robot_whose_pelvis_is_past_a_35_cm_riser_has_not_fallen_but_a_low_or_
         env._refresh()
         return bool(env._terminations()[0][top])
 
-    fallen(0.78, "lowest")
+    fallen(0.78, "lowest")  # puts the robot in the pose
     # the pose is what the docstring says: the pelvis over the 35 cm step, both soles behind its riser
     assert float(env.ground_under_base[top]) == pytest.approx(rim + 0.35, abs=1e-3)
     assert (env.sole_height - (env.sole_centres[..., 2] - rim)).abs()[top].max() < 1e-3
