@@ -12,8 +12,9 @@ robot's MJCF as cra_warp builds it for both backends).
 Each trial starts at the reference pose with small joint offsets (uniform +-0.02 rad, its seed), commanded forward
 at the speed with its heading held at 0 by the training's heading controller. Per trial: fell, time survived,
 distance along x, mean forward-velocity tracking error after the first second, step frequency (touchdowns per
-second). --export-armature gives each driven joint at least the rotor inertia the export trained with (its JSON's
-pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to survive and, with
+second), the ground height under it at the end (climbed_m). A trial succeeds when it does not fall and, on stairs,
+ends on the flight's top step. --export-armature gives each driven joint at least the rotor inertia the export trained with (its JSON's
+pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to succeed and, with
 --max-tracking-error, that error or less.
 """
 
@@ -54,7 +55,7 @@ class Sim2SimArgs:
     physics_dt: float = 0.001                    # [s]; must divide the policy's control period
     seed: int = 0
     export_armature: bool = False                # give the driven joints at least the export's rotor inertia
-    min_success: float = 0.9                     # PASS: share of trials that do not fall
+    min_success: float = 0.9                     # PASS: share of trials that succeed (up; on stairs, on the top step)
     max_tracking_error: float | None = None      # PASS: mean forward-velocity error [m/s], e.g. 1.5 x cra-eval's
     json: Path | None = None
     video: Path | None = None                    # GIF of the first trial (MuJoCo's offscreen renderer)
@@ -66,6 +67,17 @@ class Terrain:
     def __init__(self, a: Sim2SimArgs):
         self.kind, self.h, self.d, self.theta = a.terrain, a.step_height, a.step_depth, math.radians(a.slope_deg)
         self.steps = 10
+
+    @property
+    def top_x(self) -> float | None:
+        """Where a stair flight's top step begins (a trial that ends upright beyond it climbed the flight); None on
+        flat ground and slopes, whose ramp is longer than a trial walks."""
+        return TERRAIN_START + (self.steps - 1) * self.d if self.kind == "stairs" else None
+
+    def succeeded(self, record: dict) -> bool:
+        """A trial succeeds when the robot did not fall and, on stairs, stands on the top step at the end: upright at
+        the foot of a flight is not climbing it."""
+        return not record["fell"] and (self.top_x is None or record["distance"] >= self.top_x)
 
     def height(self, x: float) -> float:
         u = x - TERRAIN_START
@@ -248,7 +260,7 @@ class Trial:
                 renderer.close()  # explicitly: its destructor errors at interpreter exit
         alive = fell_at if fell_at is not None else steps * p.control_dt
         return {"speed": speed, "seed": seed, "fell": fell_at is not None, "time_survived": round(alive, 3),
-                "distance": round(float(d.qpos[0]), 3),
+                "distance": round(float(d.qpos[0]), 3), "climbed_m": round(self.terrain.height(float(d.qpos[0])), 3),
                 "tracking_error": round(float(np.mean(errors)), 4) if errors else None,
                 "step_frequency": round(touchdowns / alive, 3)}
 
@@ -281,7 +293,7 @@ def run(a: Sim2SimArgs) -> dict:
             records.append(trial.run(speed, a.seconds, a.seed + r, frames if not records else None))
     if frames:
         video.save_gif(frames, a.video, fps=1 / (video.frame_every(policy.control_dt) * policy.control_dt))
-    success = float(np.mean([not r["fell"] for r in records]))
+    success = float(np.mean([trial.terrain.succeeded(r) for r in records]))
     errs = [r["tracking_error"] for r in records if r["tracking_error"] is not None]
     err = float(np.mean(errs)) if errs else None
     passed = success >= a.min_success and (a.max_tracking_error is None or (err is not None and err <= a.max_tracking_error))
@@ -294,11 +306,11 @@ def run(a: Sim2SimArgs) -> dict:
 
 
 def _table(result: dict) -> str:
-    lines = [f"{'speed':>6} {'seed':>5} {'fell':>5} {'alive s':>8} {'dist m':>7} {'v err':>6} {'steps/s':>8}"]
+    lines = [f"{'speed':>6} {'seed':>5} {'fell':>5} {'alive s':>8} {'dist m':>7} {'up m':>5} {'v err':>6} {'steps/s':>8}"]
     for r in result["trials"]:
         e = "-" if r["tracking_error"] is None else f"{r['tracking_error']:.3f}"
         lines.append(f"{r['speed']:6.2f} {r['seed']:5d} {str(r['fell']):>5} {r['time_survived']:8.2f} "
-                     f"{r['distance']:7.2f} {e:>6} {r['step_frequency']:8.2f}")
+                     f"{r['distance']:7.2f} {r['climbed_m']:5.2f} {e:>6} {r['step_frequency']:8.2f}")
     err = "-" if result["tracking_error"] is None else f"{result['tracking_error']:.3f} m/s"
     lines.append(f"{result['terrain']} on {result['model']}: success {result['success']:.0%}, "
                  f"tracking error {err} -> {'PASS' if result['pass'] else 'FAIL'}")

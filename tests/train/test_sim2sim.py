@@ -120,3 +120,21 @@ def test_the_same_policy_falls_alike_in_training_and_on_the_vendor_models(export
         assert all(r["fell"] for r in runs), xml
         vendor = float(np.mean([r["time_survived"] for r in runs]))
         assert abs(vendor - trained) < 0.1 * trained, (xml, vendor, trained)
+
+
+def test_a_stair_trial_succeeds_only_on_the_top_step():
+    """On stairs, upright at the foot of the flight or halfway up is not success; on the top step it is, and the
+    ground there is the flight's whole rise. On a slope (longer than a trial walks) upright is success."""
+    from train import sim2sim
+
+    stairs = sim2sim.Terrain(sim2sim.Sim2SimArgs(export=None, terrain="stairs", step_height=0.1, step_depth=0.3))
+    top = stairs.top_x
+    assert stairs.height(top + 0.01) == pytest.approx(10 * 0.1) and stairs.height(top - 0.01) == pytest.approx(0.9)
+    upright = {"fell": False}
+    assert not stairs.succeeded(upright | {"distance": 0.2})
+    assert not stairs.succeeded(upright | {"distance": top - 0.5})
+    assert stairs.succeeded(upright | {"distance": top + 0.1})
+    assert not stairs.succeeded({"fell": True, "distance": top + 0.1})
+    slope = sim2sim.Terrain(sim2sim.Sim2SimArgs(export=None, terrain="slope", slope_deg=15.0))
+    assert slope.top_x is None and slope.succeeded(upright | {"distance": 0.2})
+    assert slope.height(sim2sim.TERRAIN_START + 2.0) == pytest.approx(2.0 * np.tan(np.radians(15.0)))
