@@ -13,9 +13,9 @@ Each trial starts at the reference pose with small joint offsets (uniform +-0.02
 at the speed with its heading held at 0 by the training's heading controller. Per trial: fell, time survived,
 distance along x, mean forward-velocity tracking error after the first second, step frequency (touchdowns per
 second), the ground height under it at the end (climbed_m). A trial succeeds when it does not fall and, on stairs,
-ends on the flight's top step. --export-armature gives each driven joint at least the rotor inertia the export trained with (its JSON's
-pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials to succeed and, with
---max-tracking-error, that error or less.
+ends on the flight's top step. --export-armature gives each driven joint at least the rotor inertia the export
+trained with (its JSON's pd.armature), which the vendor's files leave out. PASS needs --min-success of the trials
+to succeed and, with --max-tracking-error, that error or less.
 """
 
 from __future__ import annotations
@@ -260,7 +260,8 @@ class Trial:
                 renderer.close()  # explicitly: its destructor errors at interpreter exit
         alive = fell_at if fell_at is not None else steps * p.control_dt
         return {"speed": speed, "seed": seed, "fell": fell_at is not None, "time_survived": round(alive, 3),
-                "distance": round(float(d.qpos[0]), 3), "climbed_m": round(self.terrain.height(float(d.qpos[0])), 3),
+                "distance": round(float(d.qpos[0]), 3),
+                "climbed_m": round(self.terrain.height(float(d.qpos[0])), 3),
                 "tracking_error": round(float(np.mean(errors)), 4) if errors else None,
                 "step_frequency": round(touchdowns / alive, 3)}
 
@@ -306,7 +307,8 @@ def run(a: Sim2SimArgs) -> dict:
 
 
 def _table(result: dict) -> str:
-    lines = [f"{'speed':>6} {'seed':>5} {'fell':>5} {'alive s':>8} {'dist m':>7} {'up m':>5} {'v err':>6} {'steps/s':>8}"]
+    lines = [f"{'speed':>6} {'seed':>5} {'fell':>5} {'alive s':>8} {'dist m':>7} {'up m':>5} {'v err':>6} "
+             f"{'steps/s':>8}"]
     for r in result["trials"]:
         e = "-" if r["tracking_error"] is None else f"{r['tracking_error']:.3f}"
         lines.append(f"{r['speed']:6.2f} {r['seed']:5d} {str(r['fell']):>5} {r['time_survived']:8.2f} "
