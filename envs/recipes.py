@@ -13,6 +13,10 @@ learner paths under "learner.") that cra-train applies on top of the dataclass d
   Heading mode differs by task as it did between the two policies: off on flat ground (flat_walk_v2: a robot that
   always turns is not punished under heading mode), on for rough ground (rough_walk_v0: robots walk at the
   terrain instead of circling). tests/envs/test_recipes.py holds it to both policies' config.json.
+- climb: walk, and on rough ground what the climbing campaign (climb_fall_line, issue 35) settled on: the reach
+  promotion rule, a foothold curriculum (stairs from 2 cm, slopes from 1 deg, half the columns pits), slower forward
+  commands with a sharper tracking kernel, pit robots told to walk up the fall line, and the low-passed yaw penalty.
+  Flat ground is walk's. Each key, and the figure behind it, is a row of docs/paper.md ("climb").
 
 A method without a clock (clock_free: no clock inputs, no gait actions) cannot use a recipe's clock settings
 (gait.*: the feedforward, alpha, beta_scale): ``resolve`` leaves them out and says so, and the env skips the
@@ -70,6 +74,17 @@ RECIPES: dict[str, Recipe] = {
          "rewards.weights.swing_reference": 0.0, "difficulty.step": 0.02, "difficulty.commands": False},
         per_task={"flat": {"commands.heading_mode": False}, "rough": {"commands.heading_mode": True}}),
 }
+RECIPES["climb"] = Recipe(
+    "walk, plus on rough ground the climbing campaign's: reach rule, foothold tiles, slow commands on a sharp "
+    "kernel, fall-line commands on pits, yaw_bias -30 (beyond the paper)",
+    RECIPES["walk"].overrides,
+    per_task={"flat": RECIPES["walk"].per_task["flat"],
+              "rough": {**RECIPES["walk"].per_task["rough"],
+                        "terrain_curriculum": "reach",
+                        "rough.num_cols": 8, "rough.proportions": [1.0, 1.0, 2.0, 1.0, 2.0, 1.0],
+                        "rough.step_height": [0.02, 0.35], "rough.slope_deg": [1.0, 34.0],
+                        "commands.lin_vel_x": [-0.3, 0.6], "rewards.tracking_sigma": 0.1,
+                        "commands.pit_fall_line": True, "rewards.weights.yaw_bias": -30.0}})
 DEFAULT_RECIPE = "walk"
 
 # Keys a method without a clock cannot use, and why (the grid prints it beside the method).

@@ -12,8 +12,9 @@
 Methods (paper IV-A; envs/methods.py): ours (same-step contrast, adaptive clock), sequential (contrast with the next
 step), no_contrast, fixed_cycle, clock_free, and the baselines dreamwaq and dwl on our clock, and as their papers
 pair them: dreamwaq_clock_free (with AdaBoot) and dwl_fixed_cycle. Recipes (envs/recipes.py): walk (the default:
-what the shipped walkers trained with) and paper; a recipe's overrides come before --override's. Writes TensorBoard
-logs, checkpoints and, at the end, the exported policy (TorchScript, ONNX, deploy JSON) to the run directory.
+what the shipped walkers trained with), climb (walk plus the climbing campaign's rough-ground settings) and paper; a
+recipe's overrides come before --override's. Writes TensorBoard logs, checkpoints and, at the end, the exported
+policy (TorchScript, ONNX, deploy JSON) to the run directory.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ class TrainArgs:
     # the method (envs/methods.py: clock mode, contrast pairing, actor); --method and --variant (stored runs' name) alike
     variant: Annotated[Method, tyro.conf.arg(aliases=("--method",))] = "ours"
     # named overrides (envs/recipes.py), applied before --override: walk = what the shipped walkers trained with,
-    # paper = Table I and the paper's clock as published. Unset: walk for a new run (and --init), the checkpoint's
+    # climb = walk plus the climbing campaign's rough-ground settings, paper = Table I and the paper's clock as published. Unset: walk for a new run (and --init), the checkpoint's
     # own with --resume (paper for one written before recipes: it ran on the dataclass defaults, which are paper's)
     recipe: RecipeName | None = None
     num_envs: int = 128                # parallel robots (per process with torchrun)

@@ -103,3 +103,19 @@ def test_an_unknown_recipe_is_one_line(capsys):
 def test_no_curriculum_drops_the_recipes_curriculum_settings():
     cfg = resolved(recipe="walk", curriculum=False)
     assert not cfg.difficulty.commands and not cfg.difficulty.randomization and cfg.gait.alpha == 5.0
+
+
+def test_climb_is_walk_on_flat_ground_and_each_key_it_adds_is_a_documented_departure():
+    assert recipes.resolve("climb", "flat") == recipes.resolve("walk", "flat")
+    walk, _ = recipes.resolve("walk", "rough")
+    climb, _ = recipes.resolve("climb", "rough")
+    assert all(climb[k] == v for k, v in walk.items())
+    added = set(climb) - set(walk)
+    assert {"terrain_curriculum", "commands.pit_fall_line", "rewards.weights.yaw_bias"} <= added
+    rows = [line for line in (Path(__file__).resolve().parents[2] / "docs" / "paper.md").read_text().splitlines()
+            if line.startswith("| ") and "climb:" in line]
+    # docs/paper.md names every key as its last dotted part or whole (`rough.step_height`, `commands.pit_fall_line`)
+    undocumented = [k for k in added if not any(f"`{k}`" in r or f"`{k.split('.', 1)[-1]}`" in r for r in rows)]
+    assert not undocumented, undocumented
+    cfg = resolved(recipe="climb", task="rough")
+    assert cfg.terrain_curriculum == "reach" and cfg.commands.pit_fall_line and cfg.rewards.weights["yaw_bias"] == -30
