@@ -95,6 +95,15 @@ class GridArgs:
     budget: int = 30_000_000                            # walk: env steps per run at most
     check_every: int = 100                              # walk: iterations between flat trials
     walk_error: float = 0.15                            # walk: v_x error [m/s] at most (and every robot up) to walk
+    # PATH=VALUE given to every run's cra-train --override, after the recipe's: an arm that tunes one setting
+    # (--methods dreamwaq_clock_free --override learner.dreamwaq.beta=1.0), in its own --out beside the study's
+    override: tuple[str, ...] = ()
+
+
+def override_args(a: GridArgs, left_out: dict[str, object]) -> list[str]:
+    """cra-train's --override for one run: the recipe keys its method cannot use (a fair pair's), then --override's."""
+    items = [*(f"{k}={json.dumps(v)}" for k, v in left_out.items()), *a.override]
+    return ["--override", *items] if items else []
 
 
 def _newest(run_dir: Path) -> tuple[int, Path] | None:
@@ -172,8 +181,7 @@ def plan(a: GridArgs) -> list[dict]:
                        "--num-envs", str(a.num_envs or s["num_envs"]), "--sim", s["sim"], "--device", s["device"],
                        "--max-iterations", str(total - done_it), "--log-dir", str(run_dir), "--quiet",
                        "--save-interval", "20", "--no-export"]
-                if left_out:
-                    cmd += ["--override", *(f"{k}={json.dumps(v)}" for k, v in left_out.items())]
+                cmd += override_args(a, left_out)
                 if newest:
                     cmd += ["--resume", str(run_dir)]
             jobs.append({"method": m, "seed": seed, "run_dir": run_dir, "cmd": cmd, "recipe": recipe_of(a, m),
@@ -296,8 +304,8 @@ def run(a: GridArgs, log=print) -> list[dict]:
     # the table is cheap: always rewritten, so a grid drawn by an older version gains its newer columns
     summary = method_summary(records)
     write_csv(a.out / "table.csv", records)
-    write_json(a.out / "table.json", {"methods": summary, "recipes": recipes, "records": records,
-                                      "seed_means": seed_means(records)})
+    write_json(a.out / "table.json", {"methods": summary, "recipes": recipes, "override": list(a.override),
+                                      "records": records, "seed_means": seed_means(records)})
     log(f"wrote {a.out / 'table.csv'}; speed sweep, mean (std) over seeds:")
     for m, row in summary.items():
         s, f = row["success_rate"], row["fall_rate"]

@@ -46,6 +46,11 @@ error (the trial's tracking_error) is <= --walk-error (0.15 m/s); it stops train
     <out>/figures/walk_error.png            cra-figures --walk: v_x error vs env steps, per arm (and its JSON)
     <out>/table.json, table.csv             per arm and seed the env steps to walk (or not within budget); the mean
 
+A setting tuned before a study (a baseline's value its paper does not give) is an arm of its own: the same study with
+--methods M --override PATH=VALUE in another --out, its check records beside the study's arms of M:
+
+    cra-grid --study walk --methods dreamwaq_clock_free --override learner.dreamwaq.beta=1.0 --out tune_beta/
+
 Resumable: re-running the same command trains only what is left (an unfinished run resumes from its newest
 checkpoint, a finished one is not retrained), redoes an evaluation or probe only when its JSON is older than the
 final checkpoint, and repeats no check already recorded. On another machine: save the runs' newest checkpoints into
@@ -77,7 +82,7 @@ from typing import Callable
 from cra_warp.atomic_json import write_json, write_text
 from cra_warp.cli import UsageError
 from envs.methods import METHODS
-from train.grid import PAIR, SCALES, GridArgs, _newest, labels, paired, recipe_of, unusable
+from train.grid import PAIR, SCALES, GridArgs, _newest, labels, override_args, paired, recipe_of, unusable
 
 FORK = {"iterations": 300, "num_envs": 256, "seeds": (1, 2, 3),
         "eval": ["--robots-per-level", "10", "--ablation-robots", "50"]}
@@ -249,7 +254,7 @@ def fork_step(a: GridArgs, method: str, seed: int) -> Step | None:
     newest = _newest(run_dir)
     done = newest[0] + 1 if newest else 0
     if done < a.iterations:
-        cmd = _train_cmd(a, "rough", method, seed, run_dir, a.iterations - done)
+        cmd = _train_cmd(a, "rough", method, seed, run_dir, a.iterations - done) + override_args(a, {})
         cmd += ["--resume", str(run_dir)] if newest else ["--init", str(a.walker)]
         return Step("training", cmd, run_dir / "train.log")
     ckpt = newest[1]
@@ -301,7 +306,8 @@ def fork_table(a: GridArgs, records: list[dict], probes: dict, left_out: dict[st
     from envs.evaluation import method_summary, seed_means, write_csv
 
     means = seed_means(records)
-    table = {"study": "fork", "walker": str(a.walker), "recipe": a.recipe, "iterations": a.iterations,
+    table = {"study": "fork", "walker": str(a.walker), "recipe": a.recipe, "override": list(a.override),
+             "iterations": a.iterations,
              "num_envs": a.num_envs, "seeds": list(a.seeds), "left_out": left_out,
              "methods": method_summary(records), "ablation": [m for m in means if m["protocol"] == "ablation"],
              "probe": probe_summary(probes), "records": records, "seed_means": means}
@@ -401,9 +407,7 @@ def walk_step(a: GridArgs, label: str, method: str, seed: int) -> Step | None:
     if what != "train":
         return None
     cmd = _train_cmd(a, "flat", method, seed, run_dir, it - (newest[0] if newest else -1))
-    left_out = unusable(a, paired(a, label)[0]) if label.startswith(PAIR) else {}
-    if left_out:
-        cmd += ["--override", *(f"{k}={json.dumps(v)}" for k, v in left_out.items())]
+    cmd += override_args(a, unusable(a, paired(a, label)[0]) if label.startswith(PAIR) else {})
     if newest:
         cmd += ["--resume", str(run_dir)]
     return Step("training", cmd, run_dir / "train.log")
@@ -451,7 +455,8 @@ def walk_table(a: GridArgs, log) -> dict:
         arms[label] = {"method": method, "recipe": recipe_of(a, label), "seeds": per,
                        "walked": sum(s is not None for s in steps), "of": len(steps),
                        "mean_env_steps": statistics.fmean(steps) if all(s is not None for s in steps) else None}
-    table = {"study": "walk", "recipe": a.recipe, "num_envs": a.num_envs, "budget_env_steps": a.budget,
+    table = {"study": "walk", "recipe": a.recipe, "override": list(a.override), "num_envs": a.num_envs,
+             "budget_env_steps": a.budget,
              "check_every": a.check_every, "walk_error": a.walk_error, "arms": arms}
     write_json(a.out / "table.json", table, indent=2)
     cols = ["arm", "method", "seed", "status", "env_steps", "iteration", "checks"]

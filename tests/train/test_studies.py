@@ -83,6 +83,26 @@ def test_walk_plan_trains_every_arm_in_chunks_within_the_budget(tmp_path):
     assert at[:2] == [99, 199] and at[-1] == 30_000_000 // (256 * 24) - 1 and len(at) == 49
 
 
+def test_override_reaches_every_run_of_every_study_after_a_fair_pairs_keys(tmp_path):
+    """A tuning arm: cra-grid --override PATH=VALUE goes into each run's cra-train --override, after the keys a fair
+    pair leaves out, in the comparison, the fork and the walk study alike."""
+    for study in ("comparison", "fork", "walk"):
+        lines = []
+        grid.run(grid.GridArgs(study=study, out=tmp_path / study, seeds=(1,), dry_run=True,
+                               methods=("ours", "clock_free"), override=("learner.dreamwaq.beta=1.0",)),
+                 log=lines.append)
+        # "<label> seed 1: [training: ]<command>" (the comparison's plan leaves out "training: ")
+        cmds = {" ".join(line.split(":")[0].split()): line.split(": ", 1)[1].removeprefix("training: ").split()
+                for line in lines if " train.train " in line}
+        assert set(cmds) == {f"{m} seed 1" for m in ("ours", "clock_free", "ours_as_clock_free")
+                             if study != "fork" or m == "ours"}, (study, lines)
+        for name, cmd in cmds.items():
+            given = cmd[cmd.index("--override") + 1:]
+            assert cmd.count("--override") == 1 and "learner.dreamwaq.beta=1.0" in given, (study, name)
+            if name.startswith("ours_as_clock_free"):   # the pair's own keys stay, before the tuned one
+                assert given.index("gait.swing_feedforward=0.0") < given.index("learner.dreamwaq.beta=1.0")
+
+
 def test_walk_next_stops_at_the_first_walking_check_and_repeats_none():
     at = [1, 3, 5, 6]
     ok = {"robots": 4, "robots_up": 4, "vx_error": 0.1}
