@@ -42,7 +42,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
-from envs.recipes import DEFAULT_RECIPE, RECIPES
+from envs.recipes import CLOCK_KEYS, DEFAULT_RECIPE, RECIPES
+from cra_warp.atomic_json import write_json
 from cra_warp.cli import UsageError, parse_args
 from envs.methods import METHODS, Method
 
@@ -95,8 +96,8 @@ class GridArgs:
     budget: int = 30_000_000                            # walk: env steps per run at most
     check_every: int = 100                              # walk: iterations between flat trials
     walk_error: float = 0.15                            # walk: v_x error [m/s] at most (and every robot up) to walk
-    # PATH=VALUE given to every run's cra-train --override, after the recipe's: an arm that tunes one setting
-    # (--methods dreamwaq_clock_free --override learner.dreamwaq.beta=1.0), in its own --out beside the study's
+    # PATH=VALUE given to every run's cra-train --override, after the recipe's (not gait.*): a study that tunes one
+    # setting (--methods dreamwaq_clock_free --no-fair-pairs --override learner.dreamwaq.beta=1.0) in its own --out
     override: tuple[str, ...] = ()
 
 
@@ -192,7 +193,6 @@ def plan(a: GridArgs) -> list[dict]:
 def relabel(path: Path, label: str) -> None:
     """A fair pair's evaluation records name the checkpoint's method (ours): name them by the run's label instead,
     so the table and the figures keep it apart from ours."""
-    from cra_warp.atomic_json import write_json
 
     records = json.loads(path.read_text())
     if any(r.get("method") != label for r in records):
@@ -267,7 +267,6 @@ def train_and_evaluate(a: GridArgs, jobs: list[dict], log) -> list[Path]:
 
 
 def run(a: GridArgs, log=print) -> list[dict]:
-    from cra_warp.atomic_json import write_json
     from envs.evaluation import method_summary, seed_means, write_csv
 
     if a.study != "comparison":
@@ -314,6 +313,30 @@ def run(a: GridArgs, log=print) -> list[dict]:
     return jobs
 
 
+def checked_override(a: GridArgs) -> None:
+    """--override builds every method's config, leaves the clock alone (a method without a clock and its fair pair
+    would no longer be compared on the same terms) and is the one the study in --out started with (its runs,
+    finished or not, trained with that one): a UsageError naming what is wrong otherwise."""
+    from train import train as train_cli
+
+    clock = [item for item in a.override if item.partition("=")[0].startswith(CLOCK_KEYS)]
+    if clock:
+        raise UsageError(f"--override cannot set the clock ({', '.join(clock)}): a clock-free method and its fair "
+                         "pair would differ; give it a recipe (envs/recipes.py)")
+    task = "flat" if a.study == "walk" else "rough"
+    for m in a.methods:
+        train_cli.configs(train_cli.TrainArgs(variant=m, task=task, recipe=a.recipe, override=a.override))
+    stored = a.out / "override.json"
+    if stored.is_file():
+        before = json.loads(stored.read_text())
+        if before != list(a.override):
+            raise UsageError(f"--out {a.out} was started with --override {' '.join(before) or '(none)'}, not "
+                             f"{' '.join(a.override) or '(none)'}: give the same, or another --out")
+    elif not a.dry_run:
+        a.out.mkdir(parents=True, exist_ok=True)
+        write_json(stored, list(a.override))
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         a = parse_args(GridArgs, argv, __doc__)
@@ -333,6 +356,7 @@ def main(argv: list[str] | None = None) -> int:
             raise UsageError(f"--out {a.out}: not a directory")
         a = replace(a, methods=tuple(dict.fromkeys(a.methods)),
                     seeds=tuple(dict.fromkeys(a.seeds)) if a.seeds else None)
+        checked_override(a)
         if a.study != "comparison":
             from train import studies
 

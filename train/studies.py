@@ -46,10 +46,12 @@ error (the trial's tracking_error) is <= --walk-error (0.15 m/s); it stops train
     <out>/figures/walk_error.png            cra-figures --walk: v_x error vs env steps, per arm (and its JSON)
     <out>/table.json, table.csv             per arm and seed the env steps to walk (or not within budget); the mean
 
-A setting tuned before a study (a baseline's value its paper does not give) is an arm of its own: the same study with
---methods M --override PATH=VALUE in another --out, its check records beside the study's arms of M:
+A setting tuned before a study (a baseline's value its paper does not give) is a study of its own: --methods M
+--override PATH=VALUE in another --out (which keeps that --override: resumed with another, cra-grid refuses), its
+table beside the study's arms of M; --override cannot set the clock (gait.*), which a fair pair must mirror:
 
-    cra-grid --study walk --methods dreamwaq_clock_free --override learner.dreamwaq.beta=1.0 --out tune_beta/
+    cra-grid --study walk --methods dreamwaq_clock_free --no-fair-pairs --override learner.dreamwaq.beta=1.0 \
+        --out tune_beta/
 
 Resumable: re-running the same command trains only what is left (an unfinished run resumes from its newest
 checkpoint, a finished one is not retrained), redoes an evaluation or probe only when its JSON is older than the

@@ -46,8 +46,9 @@ class TrainArgs:
     # the method (envs/methods.py: clock mode, contrast pairing, actor); --method and --variant (stored runs' name) alike
     variant: Annotated[Method, tyro.conf.arg(aliases=("--method",))] = "ours"
     # named overrides (envs/recipes.py), applied before --override: walk = what the shipped walkers trained with,
-    # climb = walk plus the climbing campaign's rough-ground settings, paper = Table I and the paper's clock as published. Unset: walk for a new run (and --init), the checkpoint's
-    # own with --resume (paper for one written before recipes: it ran on the dataclass defaults, which are paper's)
+    # climb = walk plus the climbing campaign's rough-ground settings, paper = Table I and the paper's clock as
+    # published. Unset: walk for a new run (and --init), the checkpoint's own with --resume (paper for one written
+    # before recipes: it ran on the dataclass defaults, which are paper's)
     recipe: RecipeName | None = None
     num_envs: int = 128                # parallel robots (per process with torchrun)
     device: str = "cpu"                # cpu | cuda:N

@@ -207,6 +207,15 @@ def test_studies_reject_bad_values(capsys, tmp_path):
     one_line_error(capsys, grid.main(["--study", "walk", "--check-every", "0", "--out", str(tmp_path)]),
                    "--check-every")
     one_line_error(capsys, grid.main(["--study", "sideways"]), "--study")
+    # --override: a path no config has, the clock (a fair pair would differ), another than the --out started with
+    one_line_error(capsys, grid.main(["--study", "walk", "--override", "learner.dreamwaq.betaa=1", "--out",
+                                      str(tmp_path)]), "betaa")
+    one_line_error(capsys, grid.main(["--study", "walk", "--override", "gait.alpha=2", "--out", str(tmp_path)]),
+                   "cannot set the clock")
+    (tmp_path / "override.json").write_text(json.dumps(["learner.dreamwaq.beta=1.0"]))
+    one_line_error(capsys, grid.main(["--study", "walk", "--override", "learner.dreamwaq.beta=0.5", "--out",
+                                      str(tmp_path)]), "was started with --override learner.dreamwaq.beta=1.0")
+    one_line_error(capsys, grid.main(["--study", "walk", "--out", str(tmp_path)]), "not (none)")
 
 
 def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
