@@ -231,7 +231,8 @@ class Trial:
                 wz = float(np.clip(HEADING_GAIN * math.remainder(0.0 - yaw, 2 * math.pi), -YAW_RATE_MAX, YAW_RATE_MAX))
                 gravity = rot.T @ np.array([0.0, 0.0, -1.0])
                 q, qd = d.qpos[self.qadr], d.qvel[self.vadr]
-                target = p.step((speed, 0.0, wz), gravity, q, qd, d.qvel[3:6])  # free-joint angular velocity: body frame
+                # the free joint's angular velocity is in the body frame
+                target = p.step((speed, 0.0, wz), gravity, q, qd, d.qvel[3:6])
                 for _ in range(self.substeps):
                     d.ctrl[:p.num_joints] = p.torque(d.qpos[self.qadr], d.qvel[self.vadr], target)
                     d.ctrl[p.num_joints:] = pd_torque(d.qpos[self.held[0]], d.qvel[self.held[1]], self.held[2],
@@ -246,8 +247,9 @@ class Trial:
                     errors.append(abs(c * d.qvel[0] + s * d.qvel[1] - speed))
                 if renderer is not None and k % every == 0:
                     frames.append(self._frame(renderer, camera, speed, t, fell_at))
-                # the pelvis above the lowest ground under it or a foot (the evaluators' fall rule, LocoConfig.fall_ground;
-                # a foot body's origin stands in for its sole centre, a few cm away), or sat down (SIT_FRACTION)
+                # the pelvis above the lowest ground under it or a foot (the evaluators' fall rule,
+                # LocoConfig.fall_ground; a foot body's origin stands in for its sole centre, a few cm away), or sat
+                # down (SIT_FRACTION)
                 height = d.qpos[2] - min(self.terrain.height(x) for x in (d.qpos[0], *d.xpos[self.feet, 0]))
                 seated = d.qpos[2] - self.terrain.height(d.qpos[0]) < self.sit_height
                 if height < self.fall_height or seated or gravity[2] > self.fall_gz or not np.isfinite(d.qpos).all():
@@ -297,7 +299,8 @@ def run(a: Sim2SimArgs) -> dict:
     success = float(np.mean([trial.terrain.succeeded(r) for r in records]))
     errs = [r["tracking_error"] for r in records if r["tracking_error"] is not None]
     err = float(np.mean(errs)) if errs else None
-    passed = success >= a.min_success and (a.max_tracking_error is None or (err is not None and err <= a.max_tracking_error))
+    tracked = a.max_tracking_error is None or (err is not None and err <= a.max_tracking_error)
+    passed = success >= a.min_success and tracked
     return {"export": str(a.export), "model": str(a.model or "training model"), "terrain": a.terrain,
             "armature": "at least the export's" if a.export_armature else "the model's",
             "physics_dt": a.physics_dt, "control_dt": policy.control_dt, "seconds": a.seconds,

@@ -43,7 +43,8 @@ RecipeName = Literal[tuple(RECIPES)]  # type: ignore[valid-type]  # the choices 
 @dataclass
 class TrainArgs:
     task: Task = "flat"                # rough: the terrain curriculum
-    # the method (envs/methods.py: clock mode, contrast pairing, actor); --method and --variant (stored runs' name) alike
+    # the method (envs/methods.py: clock mode, contrast pairing, actor); --method and --variant (stored runs' name)
+    # alike
     variant: Annotated[Method, tyro.conf.arg(aliases=("--method",))] = "ours"
     # named overrides (envs/recipes.py), applied before --override: walk = what the shipped walkers trained with,
     # climb = walk plus the climbing campaign's rough-ground settings, paper = Table I and the paper's clock as
