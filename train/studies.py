@@ -161,7 +161,10 @@ def schedule(runs: dict[str, Callable[[], Step | None]], parallel: int, log, pop
     """Every run's steps until each run's next step is None, ``parallel`` commands at a time (each pinned to its own
     core where there are enough). A run's next step is asked of it again after each step it ran (the steps are a
     function of what is on disk, which is what makes a study resumable); evaluations, probes and checks go before
-    trainings, so they share the cores with the remaining trainings instead of queueing behind them."""
+    trainings, so they share the cores with the remaining trainings instead of queueing behind them. Runs go depth
+    first: a run that has started goes on before one that has not, so at most ``parallel`` runs are part-trained
+    at a time (the checkpoints a session must commit to carry the study to another machine) and finished arms
+    come in whole, in order."""
     cores = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
     waiting, running, free = list(runs), [], list(range(parallel))
     while waiting or running:
@@ -196,7 +199,7 @@ def schedule(runs: dict[str, Callable[[], Step | None]], parallel: int, log, pop
                 raise UsageError(f"{step.what} {name} failed (exit {p.returncode}); see {step.log}")
             if step.after is not None:
                 step.after()
-            waiting.append(name)
+            waiting.insert(0, name)   # depth first: this run's next step before any run that has not started
 
 
 def _run_or_print(a, runs: dict, log, popen) -> bool:

@@ -194,6 +194,24 @@ def test_a_walk_study_stops_at_the_first_walking_check_and_resumes_without_repea
     assert launched == [] and any("figures: up to date" in line for line in lines), lines
 
 
+def test_a_study_goes_depth_first_so_few_runs_are_part_trained(tmp_path):
+    """One command at a time: each run trains and checks to its end before the next run starts; two at a time: only
+    two runs are ever part-trained (the rest not started or finished)."""
+    for parallel in (1, 2):
+        out = tmp_path / str(parallel)
+        a = grid.GridArgs(study="walk", methods=("ours", "dwl", "sequential"), seeds=(1,), out=out, num_envs=8,
+                          budget=6 * 192, check_every=2, parallel=parallel, fair_pairs=False)
+        launched = []
+        studies.run(a, log=lambda _: None, popen=_fake_commands({"ours": 3, "dwl": 99, "sequential": 99}, launched))
+        order = [name for _, name, _ in launched]
+        if parallel == 1:
+            assert order == ["ours-s1"] * 4 + ["dwl-s1"] * 6 + ["sequential-s1"] * 6, order
+        started = [order.index(n) for n in ("ours-s1", "dwl-s1", "sequential-s1")]
+        ended = [len(order) - 1 - order[::-1].index(n) for n in ("ours-s1", "dwl-s1", "sequential-s1")]
+        live = max(sum(s <= i <= e for s, e in zip(started, ended)) for i in range(len(order)))
+        assert live <= parallel, (parallel, order)
+
+
 def test_studies_reject_bad_values(capsys, tmp_path):
     one_line_error(capsys, grid.main(["--study", "fork", "--methods", "dwl", "clock_free", "--out", str(tmp_path)]),
                    "none of --methods can fork")
