@@ -132,7 +132,8 @@ def save(a: CampaignArgs) -> Path:
     manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
                 "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
-    (staging / "RESUME.md").write_text(resume_md(manifest))
+    study = [json.loads((staging / r["record"]).read_text()).get("recipe") for r in runs.values() if r.get("record")]
+    (staging / "RESUME.md").write_text(resume_md(manifest, (study[0] or "walk") if study else None))
     # swap in one step: the old folder is removed only once the new one is complete
     if folder.exists():
         trash = folder.with_name(folder.name + ".old")
@@ -180,7 +181,37 @@ def restore(a: CampaignArgs) -> list[Path]:
     return restored
 
 
-def resume_md(m: dict) -> str:
+def study_md(m: dict, recipe: str) -> str:
+    """RESUME.md of a cra-grid walk study's runs: they go back into the study's layout and its command goes on (a
+    plain resume would train them past the study's checks)."""
+    name = m["name"]
+    runs = " ".join(f"~/cra_runs/{name}/walk/{k}" for k in m["runs"])
+    return f"""# Campaign {name}: a cra-grid walk study
+
+Saved {m['saved']} on {m['cpu']}: the newest checkpoint of each part-trained run (actor, critic, optimizer, config)
+and the study's record of its checks. On a fresh clone, put them back in the study's layout and re-run the study
+(it trains only what is left and repeats no check):
+
+```bash
+bash tools/setup.sh && .venv/bin/cra-campaign restore {name} --out ~/cra_runs/{name}/walk && nohup .venv/bin/cra-grid --study walk --recipe {recipe} --parallel 2 --out ~/cra_runs/{name} > ~/cra_runs_{name}.log 2>&1 &
+```
+
+Before the session ends, save the part-trained runs back here (this replaces the folder):
+
+```bash
+.venv/bin/cra-campaign save {name} {runs}
+```
+
+| run | iteration | env steps |
+|---|---|---|
+""" + "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M |" for k, r in m["runs"].items()) + "\n"
+
+
+def resume_md(m: dict, recipe: str | None = None) -> str:
+    """RESUME.md: the one command that continues the campaign's runs (``recipe``: a walk study's, whose runs carry
+    its records)."""
+    if recipe is not None:
+        return study_md(m, recipe)
     rows = "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M | `{' '.join(train_argv(r['args']))}` |"
                      for k, r in m["runs"].items())
     return f"""# Campaign {m['name']}

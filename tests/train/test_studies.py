@@ -256,6 +256,10 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
     folder = save(CampaignArgs("save", "w", (walk / "ours-s1", walk / "dwl-s1"), root=root))
     manifest = json.loads((folder / "campaign.json").read_text())
     assert manifest["runs"]["ours-s1"]["record"] == "ours-s1/record.json" and "record" not in manifest["runs"]["dwl-s1"]
+    # its RESUME.md restores into the study's layout and re-runs the study (a plain resume would skip its checks)
+    resume = (folder / "RESUME.md").read_text()
+    assert "cra-campaign restore w --out ~/cra_runs/w/walk && nohup .venv/bin/cra-grid --study walk" in resume
+    assert "--recipe walk" in resume and "cra-campaign resume" not in resume
     elsewhere = tmp_path / "other" / "walk"
     _ckpt(elsewhere / "dwl-s1", 4)    # this machine's dwl is further along than the campaign's
     restored = restore(CampaignArgs("restore", "w", root=root, out=elsewhere))
