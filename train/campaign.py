@@ -132,8 +132,8 @@ def save(a: CampaignArgs) -> Path:
     manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
                 "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
-    study = [json.loads((staging / r["record"]).read_text()).get("recipe") for r in runs.values() if r.get("record")]
-    (staging / "RESUME.md").write_text(resume_md(manifest, (study[0] or "walk") if study else None))
+    records = [json.loads((staging / r["record"]).read_text()) for r in runs.values() if r.get("record")]
+    (staging / "RESUME.md").write_text(resume_md(manifest, records[0] if records else None))
     # swap in one step: the old folder is removed only once the new one is complete
     if folder.exists():
         trash = folder.with_name(folder.name + ".old")
@@ -181,11 +181,15 @@ def restore(a: CampaignArgs) -> list[Path]:
     return restored
 
 
-def study_md(m: dict, recipe: str) -> str:
-    """RESUME.md of a cra-grid walk study's runs: they go back into the study's layout and its command goes on (a
-    plain resume would train them past the study's checks)."""
+def study_md(m: dict, record: dict) -> str:
+    """RESUME.md of a cra-grid walk study's runs: they go back into the study's layout and its command goes on with
+    the settings ``record`` (one run's study record) holds (a plain resume would train them past the study's
+    checks). A study started with --override needs it again (override.json stays with the old machine's --out)."""
     name = m["name"]
-    runs = " ".join(f"~/cra_runs/{name}/walk/{k}" for k in m["runs"])
+    recipe = str(record.get("recipe") or "walk").split()[0]   # "walk", or "walk without ..." for a clock-free arm
+    keys = (("num-envs", "num_envs"), ("budget", "budget_env_steps"), ("check-every", "check_every"),
+            ("walk-error", "walk_error"))
+    flags = " ".join(f"--{flag} {record[key]}" for flag, key in keys if key in record)
     return f"""# Campaign {name}: a cra-grid walk study
 
 Saved {m['saved']} on {m['cpu']}: the newest checkpoint of each part-trained run (actor, critic, optimizer, config)
@@ -193,13 +197,17 @@ and the study's record of its checks. On a fresh clone, put them back in the stu
 (it trains only what is left and repeats no check):
 
 ```bash
-bash tools/setup.sh && .venv/bin/cra-campaign restore {name} --out ~/cra_runs/{name}/walk && nohup .venv/bin/cra-grid --study walk --recipe {recipe} --parallel 2 --out ~/cra_runs/{name} > ~/cra_runs_{name}.log 2>&1 &
+bash tools/setup.sh && .venv/bin/cra-campaign restore {name} --out ~/cra_runs/{name}/walk && \\
+  nohup .venv/bin/cra-grid --study walk --recipe {recipe} {flags} --parallel 2 --out ~/cra_runs/{name} \\
+  > ~/cra_runs_{name}.log 2>&1 &
 ```
 
-Before the session ends, save the part-trained runs back here (this replaces the folder):
+(the study's other flags were its defaults; a study started with --override needs the same --override). Before the
+session ends, save its runs back here (this replaces the folder; every run directory, so finished runs keep their
+records):
 
 ```bash
-.venv/bin/cra-campaign save {name} {runs}
+.venv/bin/cra-campaign save {name} ~/cra_runs/{name}/walk/*/
 ```
 
 | run | iteration | env steps |
@@ -207,11 +215,11 @@ Before the session ends, save the part-trained runs back here (this replaces the
 """ + "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M |" for k, r in m["runs"].items()) + "\n"
 
 
-def resume_md(m: dict, recipe: str | None = None) -> str:
-    """RESUME.md: the one command that continues the campaign's runs (``recipe``: a walk study's, whose runs carry
-    its records)."""
-    if recipe is not None:
-        return study_md(m, recipe)
+def resume_md(m: dict, record: dict | None = None) -> str:
+    """RESUME.md: the one command that continues the campaign's runs (``record``: a walk study's record of one of
+    them, when its runs carry the study's records)."""
+    if record is not None:
+        return study_md(m, record)
     rows = "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M | `{' '.join(train_argv(r['args']))}` |"
                      for k, r in m["runs"].items())
     return f"""# Campaign {m['name']}

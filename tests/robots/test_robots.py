@@ -34,17 +34,24 @@ def test_the_registry_holds_each_robot_under_its_own_name_and_the_default_is_in_
 
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.parent.name for p in SHIPPED])
 def test_adam_lites_task_config_is_what_the_shipped_policies_trained_with(path):
-    """The numbers in each shipped config.json's env are the registry's, and its stored robot (written when the joint
-    groups and stand gains were RobotConfig fields) holds the groups and gains ADAM_LITE_LOCO has now."""
+    """The numbers in each shipped config.json's env are the registry's, and its stored robot holds the groups and
+    gains ADAM_LITE_LOCO has now: as `loco_robot` (rough_walk_v1 on), or, written before that (when the joint groups
+    and stand gains were RobotConfig fields), in `robot` with no env.robot (which loads as the default, Adam Lite)."""
     stored = json.loads(path.read_text())
-    env, robot = stored["env"], stored["robot"]
-    assert "robot" not in env  # written before the field: loads as the default, Adam Lite
+    env = stored["env"]
     cfg = from_data(LocoConfig, env)
     assert cfg.robot == "adam_lite"
     assert _numbers(cfg) == {k: getattr(ADAM_LITE_LOCO, k) for k in ROBOT_NUMBERS} == _numbers(LocoConfig())
     loco = to_data(ADAM_LITE_LOCO)
-    for k in ("arm_joints", "hip_joints", "waist_joints", "torso_link", "swing_joints", "swing_profile",
-              "lateral_joints", "turn_joints"):
+    groups = ("arm_joints", "hip_joints", "waist_joints", "torso_link", "swing_joints", "swing_profile",
+              "lateral_joints", "turn_joints")
+    if "loco_robot" in stored:
+        assert env["robot"] == "adam_lite"
+        assert {k: stored["loco_robot"][k] for k in (*groups, "stand")} == {k: loco[k] for k in (*groups, "stand")}
+        return
+    robot = stored["robot"]
+    assert "robot" not in env
+    for k in groups:
         assert robot[k] == loco[k], k
     assert (robot["stand_kp"], robot["stand_kd"], robot["ankle_pitch_joints"]) == (
         loco["stand"]["kp"], loco["stand"]["kd"], loco["stand"]["ankle_pitch_joints"])

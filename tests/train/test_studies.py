@@ -250,7 +250,8 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
         torch.save({"actor_state_dict": {}, "iter": it, "infos": {"config": {"args": {"num_envs": 8},
                                                                              "learner": {}}}},
                    run_dir / f"model_{it}.pt")
-    record = {"checks": [{"iteration": 5, "robots": 4, "robots_up": 3, "vx_error": 0.1}]}
+    record = {"checks": [{"iteration": 5, "robots": 4, "robots_up": 3, "vx_error": 0.1}],
+              "recipe": "climb without gait.alpha (no clock)", "num_envs": 8, "budget_env_steps": 1920}
     (walk / "ours-s1.json").write_text(json.dumps(record))
     root = tmp_path / "campaigns"
     folder = save(CampaignArgs("save", "w", (walk / "ours-s1", walk / "dwl-s1"), root=root))
@@ -259,7 +260,8 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
     # its RESUME.md restores into the study's layout and re-runs the study (a plain resume would skip its checks)
     resume = (folder / "RESUME.md").read_text()
     assert "cra-campaign restore w --out ~/cra_runs/w/walk && nohup .venv/bin/cra-grid --study walk" in resume
-    assert "--recipe walk" in resume and "cra-campaign resume" not in resume
+    assert "--recipe climb --num-envs 8 --budget 1920 --parallel" in resume and "cra-campaign resume" not in resume
+    assert "save w ~/cra_runs/w/walk/*/" in resume
     elsewhere = tmp_path / "other" / "walk"
     _ckpt(elsewhere / "dwl-s1", 4)    # this machine's dwl is further along than the campaign's
     restored = restore(CampaignArgs("restore", "w", root=root, out=elsewhere))
