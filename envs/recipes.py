@@ -63,28 +63,29 @@ def _paper() -> dict[str, object]:
     return weights | clock
 
 
+_WALK = Recipe(
+    "what the shipped walkers trained with: clock feedforward, lin_vel_tracking 9, contact_momentum / 10, "
+    "alpha 5, beta_scale 0.1, full-range commands",
+    {"gait.swing_feedforward": 0.25, "gait.stride_feedforward": 0.5, "gait.lateral_feedforward": 0.25,
+     "gait.turn_feedforward": 0.2, "gait.alpha": 5.0, "gait.beta_scale": 0.1,
+     "rewards.weights.lin_vel_tracking": 9.0, "rewards.weights.contact_momentum": -0.0025,
+     "rewards.weights.swing_reference": 0.0, "difficulty.step": 0.02, "difficulty.commands": False},
+    per_task={"flat": {"commands.heading_mode": False}, "rough": {"commands.heading_mode": True}})
 RECIPES: dict[str, Recipe] = {
     "paper": Recipe("Table I and the paper's clock as published, no feedforward (the dataclass defaults)", _paper()),
-    "walk": Recipe(
-        "what the shipped walkers trained with: clock feedforward, lin_vel_tracking 9, contact_momentum / 10, "
-        "alpha 5, beta_scale 0.1, full-range commands",
-        {"gait.swing_feedforward": 0.25, "gait.stride_feedforward": 0.5, "gait.lateral_feedforward": 0.25,
-         "gait.turn_feedforward": 0.2, "gait.alpha": 5.0, "gait.beta_scale": 0.1,
-         "rewards.weights.lin_vel_tracking": 9.0, "rewards.weights.contact_momentum": -0.0025,
-         "rewards.weights.swing_reference": 0.0, "difficulty.step": 0.02, "difficulty.commands": False},
-        per_task={"flat": {"commands.heading_mode": False}, "rough": {"commands.heading_mode": True}}),
+    "walk": _WALK,
+    "climb": Recipe(
+        "walk, plus on rough ground the climbing campaign's: reach rule, foothold tiles, slow commands on a sharp "
+        "kernel, fall-line commands on pits, yaw_bias -30 (beyond the paper)",
+        _WALK.overrides,
+        per_task={"flat": _WALK.per_task["flat"],
+                  "rough": {**_WALK.per_task["rough"],
+                            "terrain_curriculum": "reach",
+                            "rough.num_cols": 8, "rough.proportions": [1.0, 1.0, 2.0, 1.0, 2.0, 1.0],
+                            "rough.step_height": [0.02, 0.35], "rough.slope_deg": [1.0, 34.0],
+                            "commands.lin_vel_x": [-0.3, 0.6], "rewards.tracking_sigma": 0.1,
+                            "commands.pit_fall_line": True, "rewards.weights.yaw_bias": -30.0}}),
 }
-RECIPES["climb"] = Recipe(
-    "walk, plus on rough ground the climbing campaign's: reach rule, foothold tiles, slow commands on a sharp "
-    "kernel, fall-line commands on pits, yaw_bias -30 (beyond the paper)",
-    RECIPES["walk"].overrides,
-    per_task={"flat": RECIPES["walk"].per_task["flat"],
-              "rough": {**RECIPES["walk"].per_task["rough"],
-                        "terrain_curriculum": "reach",
-                        "rough.num_cols": 8, "rough.proportions": [1.0, 1.0, 2.0, 1.0, 2.0, 1.0],
-                        "rough.step_height": [0.02, 0.35], "rough.slope_deg": [1.0, 34.0],
-                        "commands.lin_vel_x": [-0.3, 0.6], "rewards.tracking_sigma": 0.1,
-                        "commands.pit_fall_line": True, "rewards.weights.yaw_bias": -30.0}})
 DEFAULT_RECIPE = "walk"
 
 # Keys a method without a clock cannot use, and why (the grid prints it beside the method).

@@ -118,7 +118,7 @@ def save(a: CampaignArgs) -> Path:
     staging = folder.with_name(folder.name + ".saving")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
-    runs = {}
+    runs, study = {}, None
     for run, (label, ckpt) in zip(a.runs, picked.items()):
         it, config = _stored(ckpt)
         (staging / label).mkdir()
@@ -129,11 +129,11 @@ def save(a: CampaignArgs) -> Path:
         if record.is_file():  # a grid study's record of the run, beside its directory (the walk study's checks)
             shutil.copy2(record, staging / label / "record.json")
             runs[label]["record"] = f"{label}/record.json"
+            study = study or json.loads(record.read_text())
     manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
                 "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
-    records = [json.loads((staging / r["record"]).read_text()) for r in runs.values() if r.get("record")]
-    (staging / "RESUME.md").write_text(resume_md(manifest, records[0] if records else None))
+    (staging / "RESUME.md").write_text(resume_md(manifest, study))
     # swap in one step: the old folder is removed only once the new one is complete
     if folder.exists():
         trash = folder.with_name(folder.name + ".old")

@@ -193,7 +193,6 @@ def plan(a: GridArgs) -> list[dict]:
 def relabel(path: Path, label: str) -> None:
     """A fair pair's evaluation records name the checkpoint's method (ours): name them by the run's label instead,
     so the table and the figures keep it apart from ours."""
-
     records = json.loads(path.read_text())
     if any(r.get("method") != label for r in records):
         write_json(path, [{**r, "method": label} for r in records])

@@ -259,7 +259,8 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
     assert manifest["runs"]["ours-s1"]["record"] == "ours-s1/record.json" and "record" not in manifest["runs"]["dwl-s1"]
     # its RESUME.md restores into the study's layout and re-runs the study (a plain resume would skip its checks)
     resume = (folder / "RESUME.md").read_text()
-    assert "cra-campaign restore w --out ~/cra_runs/w/walk && nohup .venv/bin/cra-grid --study walk" in resume
+    command = " ".join(resume.split("```bash\n")[1].split("```")[0].replace("\\\n", " ").split())
+    assert "cra-campaign restore w --out ~/cra_runs/w/walk && nohup .venv/bin/cra-grid --study walk" in command
     assert "--recipe climb --num-envs 8 --budget 1920 --parallel" in resume and "cra-campaign resume" not in resume
     assert "save w ~/cra_runs/w/walk/*/" in resume
     elsewhere = tmp_path / "other" / "walk"
