@@ -64,8 +64,8 @@ def test_the_default_recipe_is_walk_and_a_resume_keeps_the_checkpoints(tmp_path)
 
 
 # the recipe each shipped policy's card names (walk unless listed): its run may have given the same settings as
-# --override items (rough_walk_v1's campaign ran walk plus overrides from before the climb recipe existed)
-RECIPE_OF = {"rough_walk_v1": "climb"}
+# --override items (rough_walk_v1's and v2's campaign ran walk plus overrides from before the climb recipe existed)
+RECIPE_OF = {"rough_walk_v1": "climb", "rough_walk_v2": "climb"}
 
 
 @pytest.mark.parametrize("policy", SHIPPED, ids=[p.name for p in SHIPPED])
