@@ -20,9 +20,10 @@ per working session, at its end: each save rewrites every run's ~13 MB file, and
 
 A cra-grid study keeps several runs under one directory (<out>/train/<method>-s<seed>/, <out>/walk/...): ``save``
 takes them all (``cra-campaign save NAME <out>/walk/*/``), each with the record the study keeps beside its directory
-(RUN.json: the walk study's checks) when there is one. ``restore NAME --out DIR`` puts every run's checkpoint back as
-DIR/<run>/model_<it>.pt and its record as DIR/<run>.json, trains nothing, and leaves alone a run whose directory
-already holds a checkpoint as new; re-running the study's cra-grid command then continues it.
+(RUN.json: the walk study's checks, the fork study's settings) when there is one. ``restore NAME --out DIR`` puts
+every run's checkpoint back as DIR/<run>/model_<it>.pt and its record as DIR/<run>.json, trains nothing, and leaves
+alone a run whose directory already holds a checkpoint as new; re-running the study's cra-grid command then
+continues it.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ from cra_warp.atomic_json import write_json
 from cra_warp.cli import UsageError, parse_args
 from cra_warp.machine import cpu_info
 
-ROOT = Path(__file__).resolve().parent.parent / "robots" / "adam_lite" / "campaigns"
+REPO = Path(__file__).resolve().parent.parent
+ROOT = REPO / "robots" / "adam_lite" / "campaigns"
 # cra-train arguments that belong to one start of a run, not to the run: resume sets its own.
 _PER_START = ("resume", "init", "log_dir", "max_iterations")
 
@@ -182,23 +184,39 @@ def restore(a: CampaignArgs) -> list[Path]:
 
 
 def study_md(m: dict, record: dict) -> str:
-    """RESUME.md of a cra-grid walk study's runs: they go back into the study's layout and its command goes on with
-    the settings ``record`` (one run's study record) holds (a plain resume would train them past the study's
-    checks). A study started with --override needs it again (override.json stays with the old machine's --out)."""
-    name = m["name"]
+    """RESUME.md of a cra-grid study's runs (walk, or fork: ``record["study"]``, walk when absent as in the first
+    walk records): they go back into the study's layout and its command goes on with the settings ``record`` (one
+    run's study record) holds (a plain resume would train them past the study's checks or iterations, and skip
+    its evaluations). A study started with --override needs it again (override.json stays with the old machine's
+    --out)."""
+    name, study = m["name"], record.get("study", "walk")
     recipe = str(record.get("recipe") or "walk").split()[0]   # "walk", or "walk without ..." for a clock-free arm
-    keys = (("num-envs", "num_envs"), ("budget", "budget_env_steps"), ("check-every", "check_every"),
-            ("walk-error", "walk_error"))
-    flags = " ".join(f"--{flag} {record[key]}" for flag, key in keys if key in record)
-    return f"""# Campaign {name}: a cra-grid walk study
+    if study == "fork":
+        from train.grid import WALKER
 
-Saved {m['saved']} on {m['cpu']}: the newest checkpoint of each part-trained run (actor, critic, optimizer, config)
-and the study's record of its checks. On a fresh clone, put them back in the study's layout and re-run the study
-(it trains only what is left and repeats no check):
+        keys = (("num-envs", "num_envs"), ("iterations", "iterations"))
+        walker = Path(record.get("walker") or WALKER)
+        # the default walker needs no flag; another of the repository's is named from the clone's root
+        flags_walker = "" if walker == WALKER else \
+            f" --walker {walker.relative_to(REPO) if walker.is_relative_to(REPO) else walker}"
+        layout, what = "train", "the newest checkpoint of each part-trained run (actor, critic, optimizer, config)"
+        redo = "it trains only what is left, then evaluates and probes each run"
+    else:
+        keys = (("num-envs", "num_envs"), ("budget", "budget_env_steps"), ("check-every", "check_every"),
+                ("walk-error", "walk_error"))
+        flags_walker, layout = "", "walk"
+        what = ("the newest checkpoint of each part-trained run (actor, critic, optimizer, config) and the study's "
+                "record of its checks")
+        redo = "it trains only what is left and repeats no check"
+    flags = " ".join(f"--{flag} {record[key]}" for flag, key in keys if key in record) + flags_walker
+    return f"""# Campaign {name}: a cra-grid {study} study
+
+Saved {m['saved']} on {m['cpu']}: {what}.
+On a fresh clone, put them back in the study's layout and re-run the study ({redo}):
 
 ```bash
-bash tools/setup.sh && .venv/bin/cra-campaign restore {name} --out ~/cra_runs/{name}/walk && \\
-  nohup .venv/bin/cra-grid --study walk --recipe {recipe} {flags} --parallel 2 --out ~/cra_runs/{name} \\
+bash tools/setup.sh && .venv/bin/cra-campaign restore {name} --out ~/cra_runs/{name}/{layout} && \\
+  nohup .venv/bin/cra-grid --study {study} --recipe {recipe} {flags} --parallel 2 --out ~/cra_runs/{name} \\
   > ~/cra_runs_{name}.log 2>&1 &
 ```
 
@@ -207,7 +225,7 @@ session ends, save its runs back here (this replaces the folder; every run direc
 records):
 
 ```bash
-.venv/bin/cra-campaign save {name} ~/cra_runs/{name}/walk/*/
+.venv/bin/cra-campaign save {name} ~/cra_runs/{name}/{layout}/*/
 ```
 
 | run | iteration | env steps |

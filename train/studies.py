@@ -21,6 +21,7 @@ and slope ascent with 50 robots per level, the speed sweep 0.15-1.0 m/s with 10;
 cra-probe (its defaults; --probe-args adds to them).
 
     <out>/train/<method>-s<seed>/           cra-train runs (--init WALKER first, --resume after an interruption)
+    <out>/train/<method>-s<seed>.json       the study's settings (recipe, iterations, walker) for cra-campaign
     <out>/eval/<method>-s<seed>.json        cra-eval --protocol paper of the final checkpoint (and its .log)
     <out>/eval/<method>-s<seed>.probe.json  cra-probe of the final checkpoint: R^2 of m_a and of o_t (and .probe.log)
     <out>/figures/                          cra-figures: terrain level over training, success vs speed, vs stairs
@@ -154,6 +155,7 @@ class Step:
     cmd: list[str]
     log: Path                                    # the command's stdout and stderr (appended)
     after: Callable[[], None] | None = None      # run when the command succeeded (records a check)
+    before: Callable[[], None] | None = None     # run just before the command starts (records the study's settings)
 
 
 def schedule(runs: dict[str, Callable[[], Step | None]], parallel: int, log, popen=subprocess.Popen,
@@ -177,6 +179,8 @@ def schedule(runs: dict[str, Callable[[], Step | None]], parallel: int, log, pop
             name, step = min(steps, key=lambda ns: ns[1].what == "training")   # the first non-training, if any
             waiting.remove(name)
             step.log.parent.mkdir(parents=True, exist_ok=True)
+            if step.before is not None:
+                step.before()
             logf = open(step.log, "a")
             slot = free.pop(0)
             pin = {cores[slot]} if parallel > 1 and len(cores) >= parallel else None
@@ -251,6 +255,19 @@ def _fork_paths(a: GridArgs, label: str, seed: int) -> tuple[Path, Path, Path]:
     return a.out / "train" / name, a.out / "eval" / f"{name}.json", a.out / "eval" / f"{name}.probe.json"
 
 
+def fork_record(a: GridArgs, method: str, seed: int) -> dict:
+    """The study's settings beside the run's directory (<out>/train/<method>-s<seed>.json): cra-campaign save takes
+    it along, so the RESUME.md of a saved fork study re-runs cra-grid with them."""
+    run_dir = _fork_paths(a, method, seed)[0]
+    rec = {"study": "fork", "label": method, "method": method, "seed": seed, "recipe": recipe_of(a, method),
+           "num_envs": a.num_envs, "iterations": a.iterations, "walker": str(a.walker)}
+    path = run_dir.with_name(f"{run_dir.name}.json")
+    if not path.is_file() or json.loads(path.read_text()) != rec:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_json(path, rec, indent=2)
+    return rec
+
+
 def fork_step(a: GridArgs, method: str, seed: int) -> Step | None:
     """The run's next step: train (from the walker, or resume), evaluate, probe; None when all are done."""
     from envs.evaluation import judged_today
@@ -261,7 +278,7 @@ def fork_step(a: GridArgs, method: str, seed: int) -> Step | None:
     if done < a.iterations:
         cmd = _train_cmd(a, "rough", method, seed, run_dir, a.iterations - done) + override_args(a, {})
         cmd += ["--resume", str(run_dir)] if newest else ["--init", str(a.walker)]
-        return Step("training", cmd, run_dir / "train.log")
+        return Step("training", cmd, run_dir / "train.log", before=lambda: fork_record(a, method, seed))
     ckpt = newest[1]
     if _stale(ev, ckpt) or not judged_today(ev):
         extra = shlex.split(a.eval_args) if a.eval_args else FORK["eval"]
@@ -391,9 +408,10 @@ def record_check(a: GridArgs, label: str, method: str, seed: int, iteration: int
     check["walking"] = walks(check, a.walk_error)
     rec = read_walk(rec_path)
     checks = sorted([c for c in rec["checks"] if c["iteration"] != iteration] + [check], key=lambda c: c["iteration"])
-    rec = {"label": label, "method": method, "seed": seed, "recipe": recipe_of(a, label), "num_envs": a.num_envs,
-           "budget_env_steps": a.budget, "check_every": a.check_every, "walk_error": a.walk_error,
-           "checks": checks, "walked": next((c for c in checks if walks(c, a.walk_error)), None)}
+    rec = {"study": "walk", "label": label, "method": method, "seed": seed, "recipe": recipe_of(a, label),
+           "num_envs": a.num_envs, "budget_env_steps": a.budget, "check_every": a.check_every,
+           "walk_error": a.walk_error, "checks": checks,
+           "walked": next((c for c in checks if walks(c, a.walk_error)), None)}
     write_json(rec_path, rec, indent=2)
     return rec
 

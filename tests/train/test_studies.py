@@ -6,6 +6,7 @@ runs end to end (slow)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -275,6 +276,41 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
     assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s1")
 
 
+def test_a_campaign_carries_a_fork_study_back_to_cra_grid(tmp_path):
+    """A fork run keeps the study's settings beside its directory once it trains, so a saved fork study's RESUME.md
+    restores into <out>/train and re-runs cra-grid --study fork with its recipe, iterations and walker (a plain
+    resume would train past its iterations and skip its evaluation); restored, the run resumes for what is left."""
+    import torch
+
+    from train.campaign import REPO, CampaignArgs, restore, save
+
+    walker = REPO / "robots" / "adam_lite" / "policies" / "rough_walk_v0" / "checkpoint.pt"
+    a = studies.resolved(grid.GridArgs(study="fork", recipe="climb", methods=("ours",), seeds=(2,),
+                                       out=tmp_path / "fork", iterations=9, num_envs=8, walker=walker))
+    run_dir = tmp_path / "fork" / "train" / "ours-s2"
+    step = studies.fork_step(a, "ours", 2)
+    assert step.what == "training" and not (run_dir.parent / "ours-s2.json").exists()   # a dry run writes nothing
+    step.before()   # as the study starts its training
+    record = json.loads((run_dir.parent / "ours-s2.json").read_text())
+    assert (record["study"], record["recipe"], record["iterations"], record["num_envs"]) == ("fork", "climb", 9, 8)
+    (run_dir / "rough_x").mkdir(parents=True)
+    torch.save({"actor_state_dict": {}, "iter": 4, "infos": {"config": {"args": {"num_envs": 8}, "learner": {}}}},
+               run_dir / "rough_x" / "model_4.pt")
+    folder = save(CampaignArgs("save", "f", (run_dir,), root=tmp_path / "campaigns"))
+    resume = (folder / "RESUME.md").read_text()
+    command = " ".join(resume.split("```bash\n")[1].split("```")[0].replace("\\\n", " ").split())
+    assert "cra-campaign restore f --out ~/cra_runs/f/train && nohup .venv/bin/cra-grid --study fork" in command
+    assert "--recipe climb --num-envs 8 --iterations 9 " in command, command
+    assert "--walker robots/adam_lite/policies/rough_walk_v0/checkpoint.pt" in command
+    assert "save f ~/cra_runs/f/train/*/" in resume and "cra-campaign resume" not in resume
+    elsewhere = tmp_path / "other" / "train"
+    assert restore(CampaignArgs("restore", "f", root=tmp_path / "campaigns", out=elsewhere)) == [
+        elsewhere / "ours-s2" / "model_4.pt"]
+    step = studies.fork_step(studies.resolved(replace(a, out=elsewhere.parent)), "ours", 2)
+    assert step.what == "training" and _flag(step.cmd, "--max-iterations") == "4"
+    assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s2")
+
+
 @pytest.mark.slow
 def test_tiny_studies_run_end_to_end(tmp_path, capsys):
     """A walk study of one arm (8 robots, two chunks of 2 iterations, each checked), then a fork study of one method
@@ -310,6 +346,8 @@ def test_tiny_studies_run_end_to_end(tmp_path, capsys):
     assert started == ["training ours seed 1", "evaluating ours seed 1", "probing ours seed 1"], started
     config = json.loads(next((fork / "train" / "ours-s1").rglob("config.json")).read_text())
     assert config["args"]["init"] == str(walker) and config["args"]["task"] == "rough"
+    # the study's settings beside the run, for cra-campaign save
+    assert json.loads((fork / "train" / "ours-s1.json").read_text())["walker"] == str(walker)
     records = json.loads((fork / "eval" / "ours-s1.json").read_text())
     assert {r["protocol"] for r in records} == {"speed_sweep", "ablation"}
     table = json.loads((fork / "table.json").read_text())
