@@ -109,29 +109,39 @@ def save(a: CampaignArgs) -> Path:
     folder = a.root / a.name
     old = json.loads((folder / "campaign.json").read_text()) if (folder / "campaign.json").is_file() else {}
     target = a.target or old.get("target", 3000)
-    picked = {}
-    for run in a.runs:
-        ckpt = newest_checkpoint(run) if run.is_dir() else None
-        if ckpt is None:
-            raise UsageError(f"{run}: no model_<it>.pt under it")
-        picked[run.name] = ckpt
-    if len(picked) != len(a.runs):
+    if len({run.name for run in a.runs}) != len(a.runs):
         raise UsageError("the run directories must have distinct names (they name the campaign's runs)")
     staging = folder.with_name(folder.name + ".saving")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
     runs, study = {}, None
-    for run, (label, ckpt) in zip(a.runs, picked.items()):
-        it, config = _stored(ckpt)
-        (staging / label).mkdir()
-        shutil.copy2(ckpt, staging / label / ckpt.name)
-        runs[label] = {"checkpoint": f"{label}/{ckpt.name}", "iteration": it, "env_steps": _env_steps(it, config),
-                       "args": config["args"]}
-        record = _record(run)
-        if record.is_file():  # a grid study's record of the run, beside its directory (the walk study's checks)
+    for run in a.runs:
+        label, record = run.name, _record(run)
+        kept = json.loads(record.read_text()) if record.is_file() else None  # a grid study's record of the run
+        ckpt = newest_checkpoint(run) if run.is_dir() else None
+        if ckpt is None:
+            last = (kept or {}).get("checks") or [{}]
+            if not (last[-1] and study_finished(kept, last[-1]["iteration"]) == "walk"):
+                shutil.rmtree(staging)
+                raise UsageError(f"{run}: no model_<it>.pt under it")
+            # a finished walk run restored from a campaign: its record is all there is, and all the study reads
+            runs[label] = {"checkpoint": None, "iteration": last[-1]["iteration"],
+                           "env_steps": last[-1]["env_steps"], "args": None, "finished": True}
+        else:
+            it, config = _stored(ckpt)
+            finished = kept is not None and study_finished(kept, it)
+            runs[label] = {"checkpoint": None if finished == "walk" else f"{label}/{ckpt.name}", "iteration": it,
+                           "env_steps": _env_steps(it, config), "args": config["args"], "finished": bool(finished)}
+            (staging / label).mkdir()
+            if finished == "fork":   # evaluated and probed from it, never trained on again
+                _save_without_optimizer(ckpt, staging / label / ckpt.name)
+            elif not finished:
+                shutil.copy2(ckpt, staging / label / ckpt.name)
+        if kept is not None:
+            (staging / label).mkdir(exist_ok=True)
             shutil.copy2(record, staging / label / "record.json")
             runs[label]["record"] = f"{label}/record.json"
-            study = study or json.loads(record.read_text())
+            study = study or kept
     manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
                 "cpu": cpu_info()["model"], "runs": runs}
     write_json(staging / "campaign.json", manifest, indent=2)
@@ -146,6 +156,27 @@ def save(a: CampaignArgs) -> Path:
     else:
         staging.rename(folder)
     return folder
+
+
+def study_finished(record: dict, it: int) -> str | None:
+    """"walk" or "fork" when a study's run is done training (a walk run walked or was checked at its budget's end; a
+    fork run reached its iterations), else None. Only what the study still reads of a finished run travels: a
+    walk run's record, a fork run's checkpoint without its optimizer (a third of the file)."""
+    if record.get("study", "walk") == "fork":
+        return "fork" if it + 1 >= record["iterations"] else None
+    last = (record.get("checks") or [{}])[-1]
+    # checked at the budget's last iteration: one more iteration's env steps would pass the budget
+    at_budget = "env_steps" in last and last["env_steps"] * (last["iteration"] + 2) / (last["iteration"] + 1) > \
+        record.get("budget_env_steps", float("inf"))
+    return "walk" if record.get("walked") or at_budget else None
+
+
+def _save_without_optimizer(src: Path, dst: Path) -> None:
+    import torch
+
+    saved = torch.load(src, map_location="cpu", weights_only=False)
+    saved.pop("optimizer_state_dict", None)
+    torch.save(saved, dst)
 
 
 def _record(run: Path) -> Path:
@@ -168,7 +199,13 @@ def restore(a: CampaignArgs) -> list[Path]:
     out = a.out or Path.home() / "cra_runs" / a.name
     restored = []
     for label, run in manifest["runs"].items():
-        ckpt, run_dir = folder / run["checkpoint"], out / label
+        run_dir = out / label
+        if run["checkpoint"] is None:   # a finished walk run: its record alone (and its directory, for save's glob)
+            run_dir.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(folder / run["record"], _record(run_dir))
+            print(f"{label}: finished at iteration {run['iteration']}: its record -> {_record(run_dir)}")
+            continue
+        ckpt = folder / run["checkpoint"]
         have, have_it = _kept(run_dir)
         if have is not None and have_it >= run["iteration"]:
             print(f"{label}: {have} is as far as the campaign's iteration {run['iteration']} or further: left as "
@@ -230,7 +267,8 @@ records):
 
 | run | iteration | env steps |
 |---|---|---|
-""" + "\n".join(f"| {k} | {r['iteration']} | {r['env_steps'] / 1e6:.2f}M |" for k, r in m["runs"].items()) + "\n"
+""" + "\n".join(f"| {k} | {r['iteration']}{' (finished)' if r.get('finished') else ''} | {r['env_steps'] / 1e6:.2f}M |"
+              for k, r in m["runs"].items()) + "\n"
 
 
 def resume_md(m: dict, record: dict | None = None) -> str:
@@ -280,6 +318,9 @@ def resume(a: CampaignArgs) -> int:
         raise UsageError(f"campaign {a.name!r} has no run(s) {sorted(unknown)} (has: {', '.join(manifest['runs'])})")
     for label, run in manifest["runs"].items():
         if a.only and label not in a.only:
+            continue
+        if run.get("finished"):
+            print(f"{label}: finished in its study at iteration {run['iteration']} (RESUME.md continues the study)")
             continue
         log_dir = out / label
         ckpt = folder / run["checkpoint"]
@@ -333,7 +374,7 @@ def status(a: CampaignArgs) -> list[dict]:
             found[f"{run.parent.name}/{run.name}" if clash else run.name] = ckpt
     else:
         folder, manifest = _manifest(a)
-        found = {k: folder / r["checkpoint"] for k, r in manifest["runs"].items()}
+        found = {k: folder / r["checkpoint"] for k, r in manifest["runs"].items() if r["checkpoint"]}
     records = []
     for label, ckpt in found.items():
         saved = read_checkpoint(ckpt)

@@ -64,8 +64,9 @@ the repository, commit them, restore them there and re-run the same command:
     cra-campaign save walk_study walk/walk/*/           # each run's check record (RUN.json beside it) goes along
     cra-campaign restore walk_study --out walk/walk
 
-Only the newest checkpoints and the check records travel: the terrain-level curve of a restored run starts at the
-restore (its TensorBoard logs stay behind), and the evaluations are redone.
+Only the newest checkpoints and the records travel (a walk run that is done: its record alone; a fork run that is
+done: its checkpoint without the optimizer): the terrain-level curve of a restored run starts at the restore (its
+TensorBoard logs stay behind), and the evaluations are redone.
 """
 
 from __future__ import annotations
@@ -380,6 +381,8 @@ def walk_next(checks: list[dict], newest: int | None, at: list[int], walk_error:
     iteration to train to)."""
     if any(walks(c, walk_error) for c in checks):
         return "walked", None
+    if checks and at and max(c["iteration"] for c in checks) >= at[-1]:
+        return "not within budget", None   # known from the record alone (a finished run travels without its files)
     it = -1 if newest is None else newest
     if it in at and it not in {c["iteration"] for c in checks}:
         return "check", it

@@ -116,6 +116,14 @@ def test_walk_next_stops_at_the_first_walking_check_and_repeats_none():
     assert studies.walk_next([{"iteration": 1, **slow}, {"iteration": 3, **ok}], 3, at, 0.15) == ("walked", None)
     assert studies.walk_next([{"iteration": 1, **slow}], 1, at, 0.25) == ("walked", None)
     assert studies.walk_next([{"iteration": 6, **fell}], 6, at, 0.15) == ("not within budget", None)
+    assert studies.walk_next([{"iteration": 6, **fell}], None, at, 0.15) == ("not within budget", None)  # record only
+    from train.campaign import study_finished
+
+    budget = {"budget_env_steps": 10 * 192}
+    assert study_finished({**budget, "checks": [{"iteration": 9, "env_steps": 10 * 192}]}, 9) == "walk"
+    assert study_finished({**budget, "checks": [{"iteration": 7, "env_steps": 8 * 192}]}, 8) is None
+    assert study_finished({"study": "fork", "iterations": 9}, 8) == "fork"
+    assert study_finished({"study": "fork", "iterations": 9}, 7) is None
 
 
 class _Done:
@@ -275,6 +283,23 @@ def test_a_campaign_carries_a_studys_runs_and_their_records(tmp_path):
     assert step.what == "training" and _flag(step.cmd, "--max-iterations") == "2"
     assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s1")
 
+    # a finished run travels as its record alone, and is not trained again where it is restored
+    walked = {**record, "checks": [{"iteration": 5, "env_steps": 48, "robots": 4, "robots_up": 4, "vx_error": 0.1}]}
+    walked["walked"] = walked["checks"][0]
+    (walk / "ours-s1.json").write_text(json.dumps(walked))
+    folder = save(CampaignArgs("save", "w", (walk / "ours-s1", walk / "dwl-s1"), root=root))
+    manifest = json.loads((folder / "campaign.json").read_text())
+    assert manifest["runs"]["ours-s1"]["checkpoint"] is None and manifest["runs"]["ours-s1"]["finished"]
+    assert not list((folder / "ours-s1").glob("*.pt")) and "| ours-s1 | 5 (finished) |" in (
+        folder / "RESUME.md").read_text()
+    fresh = tmp_path / "fresh" / "walk"
+    restore(CampaignArgs("restore", "w", root=root, out=fresh))
+    assert json.loads((fresh / "ours-s1.json").read_text()) == walked and not list(fresh.rglob("ours-s1/*.pt"))
+    assert studies.walk_step(replace(a, out=fresh.parent), "ours", "ours", 1) is None
+    # and saved again from there (its directory empty), it keeps its record
+    folder = save(CampaignArgs("save", "w", (fresh / "ours-s1", fresh / "dwl-s1"), root=root))
+    assert json.loads((folder / "ours-s1" / "record.json").read_text()) == walked
+
 
 def test_a_campaign_carries_a_fork_study_back_to_cra_grid(tmp_path):
     """A fork run keeps the study's settings beside its directory once it trains, so a saved fork study's RESUME.md
@@ -309,6 +334,13 @@ def test_a_campaign_carries_a_fork_study_back_to_cra_grid(tmp_path):
     step = studies.fork_step(studies.resolved(replace(a, out=elsewhere.parent)), "ours", 2)
     assert step.what == "training" and _flag(step.cmd, "--max-iterations") == "4"
     assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s2")
+    # a finished fork run travels without its optimizer (it is evaluated and probed, not trained)
+    torch.save({"actor_state_dict": {}, "optimizer_state_dict": {"state": 1}, "iter": 8,
+                "infos": {"config": {"args": {"num_envs": 8}, "learner": {}}}}, run_dir / "rough_x" / "model_8.pt")
+    folder = save(CampaignArgs("save", "f", (run_dir,), root=tmp_path / "campaigns"))
+    kept = torch.load(folder / "ours-s2" / "model_8.pt", weights_only=False)
+    assert kept["iter"] == 8 and "optimizer_state_dict" not in kept
+    assert json.loads((folder / "campaign.json").read_text())["runs"]["ours-s2"]["finished"]
 
 
 @pytest.mark.slow
