@@ -102,8 +102,6 @@ def _env_steps(it: int, config: dict) -> int:
 
 
 def save(a: CampaignArgs) -> Path:
-    from train.train import newest_checkpoint
-
     if not a.runs:
         raise UsageError("save needs at least one run directory")
     folder = a.root / a.name
@@ -114,38 +112,15 @@ def save(a: CampaignArgs) -> Path:
     staging = folder.with_name(folder.name + ".saving")
     shutil.rmtree(staging, ignore_errors=True)
     staging.mkdir(parents=True)
-    runs, study = {}, None
-    for run in a.runs:
-        label, record = run.name, _record(run)
-        kept = json.loads(record.read_text()) if record.is_file() else None  # a grid study's record of the run
-        ckpt = newest_checkpoint(run) if run.is_dir() else None
-        if ckpt is None:
-            last = (kept or {}).get("checks") or [{}]
-            if not (last[-1] and study_finished(kept, last[-1]["iteration"]) == "walk"):
-                shutil.rmtree(staging)
-                raise UsageError(f"{run}: no model_<it>.pt under it")
-            # a finished walk run restored from a campaign: its record is all there is, and all the study reads
-            runs[label] = {"checkpoint": None, "iteration": last[-1]["iteration"],
-                           "env_steps": last[-1]["env_steps"], "args": None, "finished": True}
-        else:
-            it, config = _stored(ckpt)
-            finished = kept is not None and study_finished(kept, it)
-            runs[label] = {"checkpoint": None if finished == "walk" else f"{label}/{ckpt.name}", "iteration": it,
-                           "env_steps": _env_steps(it, config), "args": config["args"], "finished": bool(finished)}
-            (staging / label).mkdir()
-            if finished == "fork":   # evaluated and probed from it, never trained on again
-                _save_without_optimizer(ckpt, staging / label / ckpt.name)
-            elif not finished:
-                shutil.copy2(ckpt, staging / label / ckpt.name)
-        if kept is not None:
-            (staging / label).mkdir(exist_ok=True)
-            shutil.copy2(record, staging / label / "record.json")
-            runs[label]["record"] = f"{label}/record.json"
-            study = study or kept
-    manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
-                "cpu": cpu_info()["model"], "runs": runs}
-    write_json(staging / "campaign.json", manifest, indent=2)
-    (staging / "RESUME.md").write_text(resume_md(manifest, study))
+    try:   # a save that fails leaves no half-written folder in the repository
+        runs, study = _stage(a.runs, staging)
+        manifest = {"name": a.name, "target": target, "saved": time.strftime("%Y-%m-%d %H:%M %Z"),
+                    "cpu": cpu_info()["model"], "runs": runs}
+        write_json(staging / "campaign.json", manifest, indent=2)
+        (staging / "RESUME.md").write_text(resume_md(manifest, study))
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
     # swap in one step: the old folder is removed only once the new one is complete
     if folder.exists():
         trash = folder.with_name(folder.name + ".old")
@@ -158,10 +133,43 @@ def save(a: CampaignArgs) -> Path:
     return folder
 
 
+def _stage(run_dirs: tuple[Path, ...], staging: Path) -> tuple[dict, dict | None]:
+    """Each run's newest checkpoint (and the study's record beside it) copied into ``staging``: (the manifest's
+    runs, one run's study record or None)."""
+    from train.train import newest_checkpoint
+
+    runs, study = {}, None
+    for run in run_dirs:
+        label, record = run.name, _record(run)
+        kept = json.loads(record.read_text()) if record.is_file() else None  # a grid study's record of the run
+        ckpt = newest_checkpoint(run) if run.is_dir() else None
+        if ckpt is None:
+            last = (kept or {}).get("checks") or [{}]
+            if not (last[-1] and study_finished(kept, last[-1]["iteration"]) == "walk"):
+                raise UsageError(f"{run}: no model_<it>.pt under it")
+            # a finished walk run restored from a campaign: its record is all there is, and all the study reads
+            runs[label] = {"checkpoint": None, "iteration": last[-1]["iteration"],
+                           "env_steps": last[-1]["env_steps"], "args": None, "finished": True}
+        else:
+            it, config = _stored(ckpt)
+            finished = kept is not None and study_finished(kept, it)
+            runs[label] = {"checkpoint": None if finished == "walk" else f"{label}/{ckpt.name}", "iteration": it,
+                           "env_steps": _env_steps(it, config), "args": config["args"], "finished": bool(finished)}
+            (staging / label).mkdir()
+            if finished != "walk":   # a finished fork run keeps its optimizer: a longer --iterations resumes it
+                shutil.copy2(ckpt, staging / label / ckpt.name)
+        if kept is not None:
+            (staging / label).mkdir(exist_ok=True)
+            shutil.copy2(record, staging / label / "record.json")
+            runs[label]["record"] = f"{label}/record.json"
+            study = study or kept
+    return runs, study
+
+
 def study_finished(record: dict, it: int) -> str | None:
     """"walk" or "fork" when a study's run is done training (a walk run walked or was checked at its budget's end; a
-    fork run reached its iterations), else None. Only what the study still reads of a finished run travels: a
-    walk run's record, a fork run's checkpoint without its optimizer (a third of the file)."""
+    fork run reached its iterations), else None. A finished walk run travels as its record alone (the study reads
+    nothing else of it); cra-campaign resume leaves finished runs to their study."""
     if record.get("study", "walk") == "fork":
         return "fork" if it + 1 >= record["iterations"] else None
     last = (record.get("checks") or [{}])[-1]
@@ -169,14 +177,6 @@ def study_finished(record: dict, it: int) -> str | None:
     at_budget = "env_steps" in last and last["env_steps"] * (last["iteration"] + 2) / (last["iteration"] + 1) > \
         record.get("budget_env_steps", float("inf"))
     return "walk" if record.get("walked") or at_budget else None
-
-
-def _save_without_optimizer(src: Path, dst: Path) -> None:
-    import torch
-
-    saved = torch.load(src, map_location="cpu", weights_only=False)
-    saved.pop("optimizer_state_dict", None)
-    torch.save(saved, dst)
 
 
 def _record(run: Path) -> Path:
@@ -233,10 +233,13 @@ def study_md(m: dict, record: dict) -> str:
 
         keys = (("num-envs", "num_envs"), ("iterations", "iterations"))
         walker = Path(record.get("walker") or WALKER)
-        # the default walker needs no flag; another of the repository's is named from the clone's root
+        # the default walker needs no flag; another of the repository's is named from the clone's root, and one
+        # from outside it must be brought to the same path first (the study checks it before anything runs)
         flags_walker = "" if walker == WALKER else \
             f" --walker {walker.relative_to(REPO) if walker.is_relative_to(REPO) else walker}"
         layout, what = "train", "the newest checkpoint of each part-trained run (actor, critic, optimizer, config)"
+        if not walker.is_relative_to(REPO):
+            what += f". The walker {walker} is not in the repository: bring it to that path first"
         redo = "it trains only what is left, then evaluates and probes each run"
     else:
         keys = (("num-envs", "num_envs"), ("budget", "budget_env_steps"), ("check-every", "check_every"),

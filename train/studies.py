@@ -64,9 +64,8 @@ the repository, commit them, restore them there and re-run the same command:
     cra-campaign save walk_study walk/walk/*/           # each run's check record (RUN.json beside it) goes along
     cra-campaign restore walk_study --out walk/walk
 
-Only the newest checkpoints and the records travel (a walk run that is done: its record alone; a fork run that is
-done: its checkpoint without the optimizer): the terrain-level curve of a restored run starts at the restore (its
-TensorBoard logs stay behind), and the evaluations are redone.
+Only the newest checkpoints and the records travel (a walk run that is done: its record alone): the terrain-level
+curve of a restored run starts at the restore (its TensorBoard logs stay behind), and the evaluations are redone.
 """
 
 from __future__ import annotations
@@ -261,7 +260,7 @@ def fork_record(a: GridArgs, method: str, seed: int) -> dict:
     it along, so the RESUME.md of a saved fork study re-runs cra-grid with them."""
     run_dir = _fork_paths(a, method, seed)[0]
     rec = {"study": "fork", "label": method, "method": method, "seed": seed, "recipe": recipe_of(a, method),
-           "num_envs": a.num_envs, "iterations": a.iterations, "walker": str(a.walker)}
+           "num_envs": a.num_envs, "iterations": a.iterations, "walker": str(a.walker.resolve())}
     path = run_dir.with_name(f"{run_dir.name}.json")
     if not path.is_file() or json.loads(path.read_text()) != rec:
         path.parent.mkdir(parents=True, exist_ok=True)

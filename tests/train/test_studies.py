@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from cra_warp.cli import UsageError
 from envs.evaluation import FALL_GROUND
 from tests.conftest import one_line_error
 from train import grid, studies
@@ -334,13 +335,20 @@ def test_a_campaign_carries_a_fork_study_back_to_cra_grid(tmp_path):
     step = studies.fork_step(studies.resolved(replace(a, out=elsewhere.parent)), "ours", 2)
     assert step.what == "training" and _flag(step.cmd, "--max-iterations") == "4"
     assert _flag(step.cmd, "--resume") == str(elsewhere / "ours-s2")
-    # a finished fork run travels without its optimizer (it is evaluated and probed, not trained)
+    # a finished fork run keeps its optimizer (a longer --iterations resumes it) and is left to its study
     torch.save({"actor_state_dict": {}, "optimizer_state_dict": {"state": 1}, "iter": 8,
                 "infos": {"config": {"args": {"num_envs": 8}, "learner": {}}}}, run_dir / "rough_x" / "model_8.pt")
     folder = save(CampaignArgs("save", "f", (run_dir,), root=tmp_path / "campaigns"))
     kept = torch.load(folder / "ours-s2" / "model_8.pt", weights_only=False)
-    assert kept["iter"] == 8 and "optimizer_state_dict" not in kept
+    assert kept["iter"] == 8 and "optimizer_state_dict" in kept
     assert json.loads((folder / "campaign.json").read_text())["runs"]["ours-s2"]["finished"]
+    # a save that fails (a run without a checkpoint) leaves the committed folder as it was and no staging folder
+    empty = tmp_path / "fork" / "train" / "ours-s3"
+    empty.mkdir()
+    with pytest.raises(UsageError, match="no model_"):
+        save(CampaignArgs("save", "f", (run_dir, empty), root=tmp_path / "campaigns"))
+    assert sorted(p.name for p in (tmp_path / "campaigns").iterdir()) == ["f"]
+    assert (folder / "ours-s2" / "model_8.pt").is_file()
 
 
 @pytest.mark.slow
