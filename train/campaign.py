@@ -172,11 +172,7 @@ def study_finished(record: dict, it: int) -> str | None:
     nothing else of it); cra-campaign resume leaves finished runs to their study."""
     if record.get("study", "walk") == "fork":
         return "fork" if it + 1 >= record["iterations"] else None
-    last = (record.get("checks") or [{}])[-1]
-    # checked at the budget's last iteration: one more iteration's env steps would pass the budget
-    at_budget = "env_steps" in last and last["env_steps"] * (last["iteration"] + 2) / (last["iteration"] + 1) > \
-        record.get("budget_env_steps", float("inf"))
-    return "walk" if record.get("walked") or at_budget else None
+    return "walk" if record.get("walked") or record.get("budget_spent") else None
 
 
 def _record(run: Path) -> Path:
@@ -227,6 +223,7 @@ def study_md(m: dict, record: dict) -> str:
     its evaluations). A study started with --override needs it again (override.json stays with the old machine's
     --out)."""
     name, study = m["name"], record.get("study", "walk")
+    checkpoints = "the newest checkpoint of each part-trained run (actor, critic, optimizer, config)"
     recipe = str(record.get("recipe") or "walk").split()[0]   # "walk", or "walk without ..." for a clock-free arm
     if study == "fork":
         from train.grid import WALKER
@@ -237,7 +234,7 @@ def study_md(m: dict, record: dict) -> str:
         # from outside it must be brought to the same path first (the study checks it before anything runs)
         flags_walker = "" if walker == WALKER else \
             f" --walker {walker.relative_to(REPO) if walker.is_relative_to(REPO) else walker}"
-        layout, what = "train", "the newest checkpoint of each part-trained run (actor, critic, optimizer, config)"
+        layout, what = "train", checkpoints
         if not walker.is_relative_to(REPO):
             what += f". The walker {walker} is not in the repository: bring it to that path first"
         redo = "it trains only what is left, then evaluates and probes each run"
@@ -245,8 +242,7 @@ def study_md(m: dict, record: dict) -> str:
         keys = (("num-envs", "num_envs"), ("budget", "budget_env_steps"), ("check-every", "check_every"),
                 ("walk-error", "walk_error"))
         flags_walker, layout = "", "walk"
-        what = ("the newest checkpoint of each part-trained run (actor, critic, optimizer, config) and the study's "
-                "record of its checks")
+        what = f"{checkpoints} and the study's record of its checks"
         redo = "it trains only what is left and repeats no check"
     flags = " ".join(f"--{flag} {record[key]}" for flag, key in keys if key in record) + flags_walker
     return f"""# Campaign {name}: a cra-grid {study} study

@@ -413,7 +413,8 @@ def record_check(a: GridArgs, label: str, method: str, seed: int, iteration: int
     rec = {"study": "walk", "label": label, "method": method, "seed": seed, "recipe": recipe_of(a, label),
            "num_envs": a.num_envs, "budget_env_steps": a.budget, "check_every": a.check_every,
            "walk_error": a.walk_error, "checks": checks,
-           "walked": next((c for c in checks if walks(c, a.walk_error)), None)}
+           "walked": next((c for c in checks if walks(c, a.walk_error)), None),
+           "budget_spent": checks[-1]["iteration"] >= check_iterations(a)[-1]}
     write_json(rec_path, rec, indent=2)
     return rec
 

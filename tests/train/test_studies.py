@@ -120,9 +120,9 @@ def test_walk_next_stops_at_the_first_walking_check_and_repeats_none():
     assert studies.walk_next([{"iteration": 6, **fell}], None, at, 0.15) == ("not within budget", None)  # record only
     from train.campaign import study_finished
 
-    budget = {"budget_env_steps": 10 * 192}
-    assert study_finished({**budget, "checks": [{"iteration": 9, "env_steps": 10 * 192}]}, 9) == "walk"
-    assert study_finished({**budget, "checks": [{"iteration": 7, "env_steps": 8 * 192}]}, 8) is None
+    assert study_finished({"budget_spent": True, "walked": None}, 9) == "walk"
+    assert study_finished({"budget_spent": False, "walked": None}, 8) is None
+    assert study_finished({"walked": {"iteration": 3}}, 3) == "walk"
     assert study_finished({"study": "fork", "iterations": 9}, 8) == "fork"
     assert study_finished({"study": "fork", "iterations": 9}, 7) is None
 
@@ -189,6 +189,7 @@ def test_a_walk_study_stops_at_the_first_walking_check_and_resumes_without_repea
     assert len(checks) == len(set(checks))             # no check twice
     dwl = json.loads((tmp_path / "walk" / "dwl-s1.json").read_text())
     assert [c["iteration"] for c in dwl["checks"]] == [1, 3, 5, 7, 9] and dwl["walked"] is None
+    assert dwl["budget_spent"] and not ours["budget_spent"]   # what cra-campaign save reads as finished
     table = json.loads((tmp_path / "table.json").read_text())
     assert table["arms"]["ours"]["seeds"]["1"]["env_steps"] == 6 * 192
     assert table["arms"]["ours"]["mean_env_steps"] == 6 * 192
